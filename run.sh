@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# Entry point for newcomers and CI.
+#
+#   ./run.sh                         run the default scene (configs/six_dof.yaml)
+#   ./run.sh test                    run the test suite (serial and mpiexec -n 2)
+#   ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [PETSc options]
+#   ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 2]
+#   ./run.sh bench                   run the benchmark scripts
+#
+# Every form first installs what is missing (idempotent): Debian's MPICH and
+# OpenBLAS, then a virtual environment with PETSc, petsc4py and mpi4py built
+# against that MPICH, plus the pinned wheels of requirements.txt.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$here"
+VENV="${MTS_VENV:-$here/.venv}"
+PY="$VENV/bin/python"
+
+log() { echo "[run.sh] $*" >&2; }
+
+ensure_system() {
+  # System MPI (MPICH) and BLAS/LAPACK; compilers are needed to build PETSc.
+  if command -v mpichversion >/dev/null 2>&1 && [ -e /usr/include/x86_64-linux-gnu/openblas-pthread/cblas.h -o -e /usr/lib/x86_64-linux-gnu/libopenblas.so ]; then
+    return
+  fi
+  if [ "$(id -u)" != 0 ]; then
+    log "MPICH/OpenBLAS missing and not root: install mpich libmpich-dev libopenblas-dev"; exit 1
+  fi
+  log "installing MPICH and OpenBLAS with apt-get"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends mpich libmpich-dev libopenblas-dev liblapack-dev \
+      build-essential gfortran pkg-config python3-venv >/dev/null
+}
+
+python_ok() {
+  # A working petsc4py + mpi4py pair on the same MPI, plus the wheels.
+  "$1" - <<'PYEOF' >/dev/null 2>&1
+import petsc4py, mpi4py, numpy, h5py, yaml, matplotlib, meshio, pytest
+from petsc4py import PETSc
+from mpi4py import MPI
+PYEOF
+}
+
+ensure_python() {
+  local stamp="$VENV/.requirements.sha"
+  local want; want="$(sha256sum requirements.txt | cut -d' ' -f1)"
+  if [ -x "$PY" ] && [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && python_ok "$PY"; then
+    return
+  fi
+  # A system/user Python that already has a working petsc4py is used as it is.
+  if [ -z "${MTS_VENV:-}" ] && [ ! -x "$PY" ] && python_ok "$(command -v python3)"; then
+    PY="$(command -v python3)"; log "using the already importable petsc4py of $PY"; return
+  fi
+  ensure_system
+  [ -x "$PY" ] || { log "creating virtual environment $VENV"; python3 -m venv "$VENV"; }
+  local t0=$SECONDS
+  log "installing Python packages (PETSc builds from source the first time: ~10 min)"
+  "$PY" -m pip install -q --upgrade pip setuptools wheel
+  "$PY" -m pip install -q "$(grep -E '^numpy==' requirements.txt)" cython
+  # PETSc against Debian's MPICH and OpenBLAS, optimised, no downloads.
+  export PETSC_CONFIGURE_OPTIONS="--with-debugging=0 --with-blaslapack-lib=-lopenblas --with-fc=0 --with-x=0 COPTFLAGS=-O2 CXXOPTFLAGS=-O2"
+  MPICC=mpicc MPICXX=mpicxx "$PY" -m pip install -q --no-binary mpi4py,petsc,petsc4py -r requirements.txt
+  python_ok "$PY" || { log "installation finished but petsc4py/mpi4py do not import"; exit 1; }
+  echo "$want" > "$stamp"
+  log "Python environment ready in $((SECONDS - t0)) s"
+}
+
+mpiexec_for() {
+  # The mpiexec that matches the MPI mpi4py was built against.
+  "$PY" -c 'import mpi4py, os; print(os.path.dirname(mpi4py.get_config().get("mpicc","/usr/bin/mpicc")))' 2>/dev/null \
+    | { read -r d; if [ -x "$d/mpiexec" ]; then echo "$d/mpiexec"; else command -v mpiexec.mpich || command -v mpiexec; fi; }
+}
+
+ensure_python
+MPIEXEC="$(mpiexec_for)"
+export MTS_MPIEXEC="$MPIEXEC"
+export MPLBACKEND=Agg
+export PYTHONPATH="$here${PYTHONPATH:+:$PYTHONPATH}"
+
+nproc_arg=()
+if [ "${1:-}" = "-n" ]; then nproc_arg=(-n "$2"); shift 2; fi
+
+case "${1:-}" in
+  test)
+    shift
+    exec "$PY" -m pytest -q tests "$@"
+    ;;
+  sweep)
+    shift
+    exec "$PY" -m solver.sweep "${nproc_arg[@]}" "$@"
+    ;;
+  bench)
+    shift
+    exec "$PY" benchmarks/run_all.py "$@"
+    ;;
+  install)
+    log "environment ready: $PY, $MPIEXEC"
+    ;;
+  "")
+    exec "$PY" -m solver configs/six_dof.yaml
+    ;;
+  *)
+    if [ ${#nproc_arg[@]} -gt 0 ]; then
+      exec "$MPIEXEC" "${nproc_arg[@]}" "$PY" -m solver "$@"
+    fi
+    exec "$PY" -m solver "$@"
+    ;;
+esac

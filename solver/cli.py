@@ -1,0 +1,117 @@
+"""Command line: ``python -m solver SCENE.yaml [--set key.path=value ...] [PETSc options]``.
+
+Also ``python -m solver keys`` (every scene key with type, default and
+documentation) and ``python -m solver schemes`` (integrators and coupling
+schemes with their stability limits).  Errors end the process with one line
+on stderr and an exit code (see README): 2 bad scene or unstable step,
+3 run stopped (non-finite state, energy growth), 4 MPI launch problem.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+from .errors import LaunchError, SolverError
+
+USAGE = """usage: python -m solver SCENE.yaml [--set key.path=value ...] [PETSc options]
+       python -m solver keys [--markdown] | schemes
+PETSc options (e.g. -options_file configs/x.opts, -log_view, -fem_mat_type baij) go to PETSc;
+every partition's PETSc objects carry the prefix <partition name>_ ."""
+
+LAUNCH_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS")
+
+
+def split_args(argv):
+    """(scene path, overrides, PETSc options) from the command line."""
+    scene, overrides, petsc = None, [], []
+    it = iter(argv)
+    for arg in it:
+        if arg == "--set":
+            value = next(it, None)
+            if value is None:
+                raise SolverError("--set needs key.path=value")
+            overrides.append(value)
+        elif arg.startswith("--set="):
+            overrides.append(arg[len("--set="):])
+        elif scene is None and not arg.startswith("-") and arg.endswith((".yaml", ".yml")):
+            scene = arg
+        else:
+            petsc.append(arg)
+    return scene, overrides, petsc
+
+
+def check_launch(comm):
+    """Refuse a launcher/library mismatch: the launcher started N processes but
+    MPI reports a world of one (every rank thinks it is alone)."""
+    for var in LAUNCH_VARS:
+        value = os.environ.get(var, "")
+        if value.isdigit() and int(value) > 1 and comm.size == 1:
+            raise LaunchError(
+                f"launched as {value} processes ({var}={value}) but MPI sees a world of 1: the "
+                "mpiexec does not match the MPI library mpi4py/PETSc use; run './run.sh -n N "
+                "SCENE.yaml' or that library's mpiexec")
+
+
+def print_keys(markdown=False):
+    from .scene import Scene
+    from .schema import describe
+    rows = describe(Scene)
+    if markdown:
+        print("| key | type | default | meaning |\n|---|---|---|---|")
+        for name, tp, default, doc in rows:
+            cells = [c.replace("|", "\\|") for c in (tp, default, doc)]
+            print(f"| `{name}` | {' | '.join(cells)} |")
+        return
+    for name, tp, default, doc in rows:
+        print(f"{name:32s} {tp:28s} default {default:14s} {doc}")
+
+
+def print_schemes():
+    from . import integrators
+    from .scene import Coupling
+    for cls in integrators.CATALOGUE:
+        print(f"integrator {cls.name}: {cls.__doc__.strip()}\n")
+    print(f"coupling.scheme / coupling.external:")
+    from .schema import describe
+    for name, tp, default, doc in describe(Coupling):
+        print(f"  {name}: {tp} (default {default}) - {doc}")
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(USAGE)
+        return 0 if argv else 2
+    if argv[0] == "keys":
+        print_keys(markdown="--markdown" in argv)
+        return 0
+    if argv[0] == "schemes":
+        print_schemes()
+        return 0
+    rank = 0
+    try:
+        path, overrides, petsc_args = split_args(argv)
+        if path is None:
+            raise SolverError(f"no scene file (*.yaml) among the arguments\n{USAGE}")
+        from mpi4py import MPI
+        comm = MPI.COMM_WORLD
+        rank = comm.rank
+        check_launch(comm)
+        from . import scene as scene_mod
+        scene = scene_mod.load(path, overrides)
+        from .petscutil import init
+        init(petsc_args)
+        from .runner import run, summary
+        result = run(scene, comm, log=print, scene_text=open(path).read())
+        if rank == 0:
+            for line in summary(result, scene.output_file):
+                print(line, flush=True)
+        return 0
+    except SolverError as e:
+        if rank == 0:
+            print(f"error: {e}", file=sys.stderr, flush=True)
+        return e.exit_code
+    except KeyboardInterrupt:
+        if rank == 0:
+            print("error: interrupted; no output written", file=sys.stderr, flush=True)
+        return 130

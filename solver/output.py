@@ -1,0 +1,59 @@
+"""HDF5 output, written atomically: a temporary name, renamed when complete.
+
+Layout::
+
+    /                  attrs: scene, status (completed|failed), message, ranks,
+                       wall_time, scheme, external_treatment, system_dt,
+                       n_system_steps, t_end, scene_yaml
+    /partitions/<name> attrs: method, integrator, ratio, dt, steps, wall_time,
+                       n_owned, n_external, layers, omega_max, critical_step
+    /probes/<name>/t, displacement, velocity [, reference_displacement]
+                       attrs: node, component, partition [, max_rel_error,
+                       rms_rel_error]
+    /energy/t, kinetic, strain, external_work, total
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+
+def write(path: str, result) -> None:
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
+    try:
+        with h5py.File(tmp, "w") as f:
+            for k, v in result.attrs.items():
+                f.attrs[k] = v
+            for name, attrs in result.partitions.items():
+                g = f.create_group(f"partitions/{name}")
+                for k, v in attrs.items():
+                    g.attrs[k] = v
+            for name, probe in result.probes.items():
+                g = f.create_group(f"probes/{name}")
+                for k in ("t", "displacement", "velocity", "reference_displacement"):
+                    if k in probe:
+                        g.create_dataset(k, data=np.asarray(probe[k]))
+                for k, v in probe.get("attrs", {}).items():
+                    g.attrs[k] = v
+            g = f.create_group("energy")
+            for k, v in result.energy.items():
+                g.create_dataset(k, data=np.asarray(v))
+        os.replace(tmp, target)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def read_probe(path: str, name: str) -> dict:
+    """A probe's datasets and attributes, plus the file's root attributes."""
+    with h5py.File(path, "r") as f:
+        g = f[f"probes/{name}"]
+        out = {k: g[k][()] for k in g}
+        out.update({f"attr:{k}": v for k, v in g.attrs.items()})
+        out.update({f"root:{k}": v for k, v in f.attrs.items()})
+    return out

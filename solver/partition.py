@@ -1,0 +1,163 @@
+"""A partition: the state of its held nodes and the stepping of its integrator.
+
+Local vectors run over the partition's *held* DOFs: owned first, then the
+external layers (see :mod:`solver.overlap`).  The state is one array
+``state[3, n_held_dofs]`` whose rows are displacement, velocity and
+acceleration; PETSc Vecs ``u, v, a`` share that memory, so integrators use
+PETSc vector operations and the exchange copies whole rows with numpy.
+
+External-data treatments (``coupling.external``):
+  taylor   external accelerations stay at their exchanged values, so external
+           displacement and velocity follow x + s v + s^2/2 a (the Taylor
+           predictor from the last exchange) during the sub-steps;
+  layers   one external layer per sub-step, integrated with the partition's
+           scheme (the outer layers degrade but never reach the boundary);
+  literal  one layer integrated with the partition's own scheme (seed 000).
+
+Subclasses (:mod:`solver.fem`, :mod:`solver.dem`) build the stiffness
+operator ``Kneg = -K`` over the held DOFs.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import integrators
+from .petscutil import vec_on
+
+
+class Partition:
+    method = "?"
+
+    def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
+                 system_ratio: int):
+        self.spec = spec
+        self.name = spec.name
+        self.prefix = f"{spec.name}_"
+        self.layout = layout
+        self.comm = comm
+        self.dt = spec.ratio * base_dt
+        self.n_sub = system_ratio // spec.ratio
+        self.integrator = integrators.make(spec)
+        dof = model.dof
+        self.dof = dof
+        held = layout.held
+        self.held_dofs = (held[:, None] * dof + np.arange(dof)).ravel()
+        self.n_own = layout.n_owned * dof
+        n = self.held_dofs.size
+        self.state = np.zeros((3, n))
+        self.U, self.V, self.A = self.state
+        self.u, self.v, self.a = (vec_on(x, comm) for x in (self.U, self.V, self.A))
+        self.R = np.zeros(n)
+        self.r = vec_on(self.R, comm)
+        for name in self.integrator.work:
+            setattr(self, name, vec_on(np.zeros(n), comm))
+        self.mass = np.repeat(model.mass[held], dof)
+        self.minv = vec_on(1.0 / self.mass, comm)
+        self.frozen = treatment == "taylor" and n > self.n_own
+        self.A_ext = np.zeros(n - self.n_own)
+        self._setup_loads(model, layout)
+        self.Kneg = self.build_operator(model, layout)
+        self.steps = 0
+        self.wall = 0.0
+
+    # ------------------------------------------------------------------ set-up
+    def build_operator(self, model, layout):
+        raise NotImplementedError
+
+    def _setup_loads(self, model, layout):
+        nodes = np.array([l.dof // model.dof for l in model.loads], dtype=np.int64)
+        local = layout.local(nodes) if nodes.size else nodes
+        self._loads = []           # (local dof, g.at)
+        self._owned_loads = []     # (index into _loads, local dof)
+        for load, loc in zip(model.loads, local):
+            if loc < 0:
+                continue
+            i = int(loc) * model.dof + load.dof % model.dof
+            if loc < layout.n_owned:
+                self._owned_loads.append((len(self._loads), i))
+            self._loads.append((i, load.function.at))
+        self.f_last = [0.0] * len(self._loads)
+        self.work = 0.0
+        self._power = 0.0
+
+    def describe(self) -> str:
+        lay = self.layout
+        ext = " + ".join(str(l.size) for l in lay.layers) or "0"
+        return (f"{self.name}: {self.method}, {self.integrator.describe()}; step {self.dt:.3e} s "
+                f"x {self.n_sub} per system step; nodes: {lay.n_owned} owned (boundary "
+                f"{_ids(lay.boundary)}, interior {lay.interior.size}), external {ext} in "
+                f"{len(lay.layers)} layer(s) {_ids(lay.external)}")
+
+    # ---------------------------------------------------------------- physics
+    def residual(self, t, u, v):
+        """r = f(t) - K u (damping-free partitions ignore v)."""
+        self.Kneg.mult(u, self.r)
+        if self._loads:
+            R = self.R
+            f = self.f_last
+            for j, (i, g) in enumerate(self._loads):
+                val = g(t)
+                f[j] = val
+                R[i] += val
+
+    def accelerate(self):
+        """a = M^-1 r; under the taylor treatment external a keeps its exchanged value."""
+        self.a.pointwiseMult(self.r, self.minv)
+        if self.frozen:
+            self.A[self.n_own:] = self.A_ext
+
+    def initialise(self, model):
+        """Initial state and a_0 = M^-1 (f(0) - K u_0) on the held DOFs."""
+        self.U[:] = model.u0[self.held_dofs]
+        self.V[:] = model.v0[self.held_dofs]
+        self.residual(0.0, self.u, self.v)
+        self.a.pointwiseMult(self.r, self.minv)
+        self._power = self._owned_power()
+
+    def after_exchange(self):
+        if self.frozen:
+            self.A_ext[:] = self.A[self.n_own:]
+
+    def _owned_power(self) -> float:
+        V, f = self.V, self.f_last
+        return sum(f[j] * V[i] for j, i in self._owned_loads)
+
+    def advance(self, t0: float):
+        """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
+        step = self.integrator.step
+        h = self.dt
+        track = bool(self._owned_loads)
+        for k in range(1, self.n_sub + 1):
+            step(self, t0 + k * h)
+            if track:
+                p = self._owned_power()
+                self.work += 0.5 * h * (self._power + p)
+                self._power = p
+        self.steps += self.n_sub
+
+    def energies(self):
+        """(kinetic, strain, external work) of the owned DOFs.
+
+        Strain energy is 1/2 sum_owned u_i (K u)_i, which sums to 1/2 u^T K u
+        over all partitions because owned rows of a partition's K are complete.
+        """
+        n = self.n_own
+        kinetic = 0.5 * float(np.dot(self.mass[:n], self.V[:n] ** 2))
+        self.Kneg.mult(self.u, self.r)
+        strain = -0.5 * float(np.dot(self.U[:n], self.R[:n]))
+        return kinetic, strain, self.work
+
+    def local_index(self, node: int, component: int) -> int:
+        loc = int(self.layout.local(np.array([node]))[0])
+        return loc * self.dof + component
+
+    def destroy(self):
+        for name in ("u", "v", "a", "r", "minv", "Kneg", *self.integrator.work):
+            getattr(self, name).destroy()
+
+
+def _ids(nodes, limit=6) -> str:
+    nodes = list(map(int, nodes))
+    if len(nodes) <= limit:
+        return str(nodes)
+    return f"[{', '.join(map(str, nodes[:limit]))}, ... {len(nodes)} nodes]"

@@ -1,0 +1,352 @@
+"""The scene file: YAML parsed once into typed, validated, frozen objects.
+
+Every key is declared here with its type, default and documentation
+(``python -m solver keys`` prints them; docs/scene.md lists them).  Nothing
+downstream reads raw dictionaries.  Cross-section checks (node ids in range,
+each node owned by exactly one partition, step ratios that divide the system
+step) run in :meth:`Scene.validate`, so a bad scene fails before any work.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import yaml
+
+from .errors import SceneError
+from .schema import convert, fail, key, parse
+
+GROUND = -1  # node id of the fixed end of a spring
+
+
+def _node_ref(value, path):
+    if value == "ground":
+        return GROUND
+    if isinstance(value, bool) or not isinstance(value, int):
+        fail(path, f"expected a node id or 'ground', got {value!r}")
+    if value < 0:
+        fail(path, f"node id must be non-negative, got {value}")
+    return value
+
+
+@dataclass(frozen=True)
+class Spring:
+    """A linear spring between two nodes (or a node and the ground)."""
+
+    i: int
+    j: int
+    stiffness: float
+
+
+def _springs(value, path):
+    if not isinstance(value, list):
+        fail(path, f"expected a list of [node_i, node_j, stiffness], got {value!r}")
+    out = []
+    for n, item in enumerate(value):
+        p = f"{path}[{n}]"
+        if not isinstance(item, list) or len(item) != 3:
+            fail(p, f"expected [node_i, node_j, stiffness], got {item!r}")
+        i, j = _node_ref(item[0], p), _node_ref(item[1], p)
+        if i == j:
+            fail(p, f"spring connects {item[0]!r} to itself")
+        k = convert(float, item[2], p, {"positive": True})
+        out.append(Spring(i, j, k))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Time:
+    end: float = key("end time of the run [s]", positive=True)
+    dt: float = key("base step [s]; a partition steps ratio*dt", positive=True)
+
+
+@dataclass(frozen=True)
+class NetworkModel:
+    """Lumped masses joined by linear springs, one DOF per node."""
+
+    kind: Literal["network"] = key("model kind")
+    masses: tuple[float, ...] = key("mass of each node [kg]; the node ids are the list positions",
+                                    positive=True)
+    springs: tuple[Spring, ...] = key(
+        "springs as [node_i, node_j, stiffness N/m]; 'ground' is a fixed end",
+        parse=_springs, choices_doc="list of [node|ground, node|ground, float]")
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.masses)
+
+
+NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
+
+
+@dataclass(frozen=True)
+class Partition:
+    name: str = key("partition name; also the PETSc options prefix (name_)")
+    method: Literal["fem", "dem"] = key("fem: sparse matrix partition; dem: particles and bonds")
+    nodes: tuple[int, ...] = key("node ids owned by this partition", nonnegative=True)
+    integrator: Literal["explicit", "verlet"] = key(
+        "explicit: Newmark predictor-corrector, explicit form (fem); verlet: velocity Verlet (dem)")
+    ratio: int = key("this partition steps ratio*time.dt", positive=True)
+    beta: float = key("Newmark beta (explicit integrator)", 0.25, nonnegative=True)
+    gamma: float = key("Newmark gamma (explicit integrator)", 0.5, positive=True)
+
+    SUPPORTED = {("fem", "explicit"), ("dem", "verlet")}
+
+    def validate(self, path):
+        if not NAME.match(self.name):
+            fail(f"{path}.name", f"{self.name!r} must be letters and digits, starting with a letter "
+                 "(it becomes the PETSc options prefix)")
+        if (self.method, self.integrator) not in self.SUPPORTED:
+            ok = ", ".join(f"{m}+{i}" for m, i in sorted(self.SUPPORTED))
+            fail(f"{path}.integrator", f"method {self.method} with integrator {self.integrator} "
+                 f"is not supported (supported: {ok})")
+
+
+@dataclass(frozen=True)
+class Coupling:
+    scheme: Literal["overlap"] = key(
+        "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
+        "state and exchange once per system step", "overlap")
+    external: Literal["taylor", "layers", "literal"] = key(
+        "external-data treatment: taylor (one layer following the Taylor predictor from the last "
+        "exchange, default), layers (one layer per sub-step, integrated), literal (seed 000: one "
+        "layer integrated by the partition's own scheme)", "taylor")
+
+
+@dataclass(frozen=True)
+class Load:
+    node: int = key("loaded node", nonnegative=True)
+    kind: Literal["sine", "half_sine", "tabulated"] = key(
+        "sine: A sin(omega t); half_sine: A sin(pi (t-start)/duration) on [start, start+duration], "
+        "0 elsewhere; tabulated: piecewise linear through table, end values held")
+    component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
+    amplitude: float = key("A [N] (sine, half_sine)", 1.0)
+    omega: float | None = key("angular frequency [rad/s] (sine)", None, positive=True)
+    duration: float | None = key("pulse length [s] (half_sine)", None, positive=True)
+    start: float = key("pulse start [s] (half_sine)", 0.0, nonnegative=True)
+    table: tuple[tuple[float, ...], ...] | None = key("[[t, value], ...] with increasing t (tabulated)",
+                                                      None)
+
+    def validate(self, path):
+        need = {"sine": ("omega",), "half_sine": ("duration",), "tabulated": ("table",)}[self.kind]
+        for name in ("omega", "duration", "table"):
+            given = getattr(self, name) is not None
+            if name in need and not given:
+                fail(f"{path}.{name}", f"required for a {self.kind} load")
+            if name not in need and given:
+                fail(f"{path}.{name}", f"not used by a {self.kind} load")
+        if self.kind == "tabulated":
+            rows = self.table
+            if len(rows) < 2 or any(len(r) != 2 for r in rows):
+                fail(f"{path}.table", "needs at least two [t, value] rows")
+            ts = [r[0] for r in rows]
+            if any(b <= a for a, b in zip(ts, ts[1:])):
+                fail(f"{path}.table", "times must increase strictly")
+
+
+@dataclass(frozen=True)
+class Initial:
+    displacement: dict[int, float] = key("node -> initial displacement", {})
+    velocity: dict[int, float] = key("node -> initial velocity", {})
+
+
+@dataclass(frozen=True)
+class Probe:
+    name: str = key("probe name (HDF5 group /probes/<name>)")
+    node: int = key("probed node", nonnegative=True)
+    component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
+
+
+@dataclass(frozen=True)
+class Output:
+    file: str = key("HDF5 output path, relative to the working directory")
+    energy_every: int | None = key(
+        "system steps between energy samples and blow-up checks (default: ~2000 samples per run)",
+        None, positive=True)
+    progress: float = key("seconds between progress lines on rank 0 (0: none)", 10.0,
+                          nonnegative=True)
+
+
+@dataclass(frozen=True)
+class Guard:
+    stable_step: bool = key("refuse explicit steps with omega_max*dt >= 2 before stepping", True)
+    energy_bound: float = key(
+        "stop when total energy exceeds this factor times (initial energy + largest |external "
+        "work| so far)", 10.0, positive=True)
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str = key("scene name")
+    time: Time = key("time span and base step")
+    model: NetworkModel = key("the structure")
+    partitions: tuple[Partition, ...] = key("partitions; each node is owned by exactly one")
+    coupling: Coupling = key("how partitions exchange", Coupling())
+    loads: tuple[Load, ...] = key("external forces", ())
+    initial: Initial = key("initial state (zero where not given)", Initial())
+    probes: tuple[Probe, ...] = key("recorded node histories", ())
+    reference: Literal["none", "modal"] = key(
+        "modal: exact solution of the network at the probe times", "none")
+    output: Output | None = key("output file; default results/<name>.h5", None)
+    guard: Guard = key("stability and blow-up guards", Guard())
+
+    # --- derived -------------------------------------------------------
+    @property
+    def system_ratio(self) -> int:
+        return max(p.ratio for p in self.partitions)
+
+    @property
+    def system_dt(self) -> float:
+        return self.time.dt * self.system_ratio
+
+    @property
+    def n_system_steps(self) -> int:
+        return int(self.time.end / self.system_dt + 1e-9)
+
+    @property
+    def output_file(self) -> str:
+        return self.output.file if self.output else f"results/{self.name}.h5"
+
+    def validate(self, path):
+        n = self.model.n_nodes
+        for s, sp in enumerate(self.model.springs):
+            for end in (sp.i, sp.j):
+                if end >= n:
+                    fail(f"model.springs[{s}]", f"node {end} out of range (model has {n} nodes)")
+        if not self.partitions:
+            fail("partitions", "at least one partition is needed")
+        owner: dict[int, str] = {}
+        names = set()
+        for p, part in enumerate(self.partitions):
+            if part.name in names:
+                fail(f"partitions[{p}].name", f"duplicate partition name {part.name!r}")
+            names.add(part.name)
+            for node in part.nodes:
+                if node >= n:
+                    fail(f"partitions[{p}].nodes", f"node {node} out of range (model has {n} nodes)")
+                if node in owner:
+                    fail(f"partitions[{p}].nodes",
+                         f"node {node} is owned by partitions '{owner[node]}' and '{part.name}'")
+                owner[node] = part.name
+        orphans = sorted(set(range(n)) - set(owner))
+        if orphans:
+            fail("partitions", f"nodes {orphans[:10]} are owned by no partition")
+        big = self.system_ratio
+        for p, part in enumerate(self.partitions):
+            if big % part.ratio:
+                fail(f"partitions[{p}].ratio", f"{part.ratio} does not divide the largest ratio {big}")
+        if self.n_system_steps < 1:
+            fail("time.end", f"{self.time.end} is shorter than one system step ({self.system_dt})")
+        for i, load in enumerate(self.loads):
+            self._check_dof(f"loads[{i}]", load.node, load.component)
+        for kind in ("displacement", "velocity"):
+            for node in getattr(self.initial, kind):
+                self._check_dof(f"initial.{kind}.{node}", node, 0)
+        seen = set()
+        for i, probe in enumerate(self.probes):
+            self._check_dof(f"probes[{i}]", probe.node, probe.component)
+            if probe.name in seen:
+                fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
+            seen.add(probe.name)
+        if self.reference == "modal" and any(l.kind not in ("sine", "half_sine", "tabulated")
+                                              for l in self.loads):
+            fail("reference", "modal reference supports sine, half_sine and tabulated loads")
+
+    def _check_dof(self, path, node, component):
+        if node < 0 or node >= self.model.n_nodes:
+            fail(f"{path}.node" if "initial" not in path else path,
+                 f"node {node} out of range (model has {self.model.n_nodes} nodes)")
+        if component != 0:
+            fail(f"{path}.component", f"component {component} out of range (network nodes have 1 DOF)")
+
+
+# ---------------------------------------------------------------------------
+def apply_override(raw: dict, assignment: str) -> None:
+    """Apply ``key.path=value`` to raw scene data.  List items are addressed by
+    index or, for lists of named mappings (partitions, probes), by name."""
+    if "=" not in assignment:
+        raise SceneError(f"--set {assignment}: expected key.path=value")
+    path, text = assignment.split("=", 1)
+    value = yaml_load(text) if text.strip() else None
+    parts = path.split(".")
+    node = raw
+    for depth, part in enumerate(parts):
+        last = depth == len(parts) - 1
+        where = ".".join(parts[:depth + 1])
+        if isinstance(node, list):
+            idx = _list_index(node, part, where)
+            if last:
+                node[idx] = value
+                return
+            node = node[idx]
+        elif isinstance(node, dict):
+            if last:
+                node[part] = value
+                return
+            if part not in node or node[part] is None:
+                node[part] = {}
+            node = node[part]
+        else:
+            raise SceneError(f"--set {path}: '{'.'.join(parts[:depth])}' is not a section")
+
+
+def _list_index(items: list, part: str, where: str) -> int:
+    if part.lstrip("-").isdigit():
+        idx = int(part)
+        if -len(items) <= idx < len(items):
+            return idx
+        raise SceneError(f"--set {where}: index out of range ({len(items)} items)")
+    for idx, item in enumerate(items):
+        if isinstance(item, dict) and item.get("name") == part:
+            return idx
+    raise SceneError(f"--set {where}: no item named {part!r}")
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also reads YAML 1.2 floats such as ``1e-6`` as numbers."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                |[-+]?\.(?:inf|Inf|INF)
+                |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
+
+
+def yaml_load(text: str):
+    return yaml.load(text, Loader=_Loader)
+
+
+def load_raw(path: str | Path) -> dict:
+    p = Path(path)
+    if not p.is_file():
+        raise SceneError(f"{path}: scene file not found")
+    try:
+        raw = yaml_load(p.read_text())
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark else ""
+        raise SceneError(f"{path}:{where} not valid YAML ({getattr(e, 'problem', e)})") from None
+    if not isinstance(raw, dict):
+        raise SceneError(f"{path}: a scene is a YAML mapping")
+    return raw
+
+
+def from_dict(raw: dict) -> Scene:
+    return parse(Scene, raw)
+
+
+def load(path: str | Path, overrides=()) -> Scene:
+    """Read, override and validate a scene file.  Errors name the file and key."""
+    raw = load_raw(path)
+    for assignment in overrides:
+        apply_override(raw, assignment)
+    try:
+        return from_dict(raw)
+    except SceneError as e:
+        raise SceneError(f"{path}: {e}") from None

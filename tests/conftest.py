@@ -1,0 +1,60 @@
+"""Shared helpers: scene files, in-process runs, CLI subprocesses, mpiexec."""
+from __future__ import annotations
+
+import copy
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIGS = ROOT / "configs"
+
+
+def mpiexec() -> str:
+    exe = os.environ.get("MTS_MPIEXEC") or shutil.which("mpiexec.mpich") or shutil.which("mpiexec")
+    assert exe, "no mpiexec found (run the tests through ./run.sh test)"
+    return exe
+
+
+def raw_scene(name: str) -> dict:
+    return yaml.safe_load((CONFIGS / f"{name}.yaml").read_text())
+
+
+def write_scene(path: Path, raw: dict) -> Path:
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+def run_cli(args, n: int | None = None, cwd=None, env=None, timeout=600):
+    """Run ``python -m solver ARGS`` (under mpiexec -n N when n is given)."""
+    cmd = [sys.executable, "-m", "solver", *map(str, args)]
+    if n:
+        cmd = [mpiexec(), "-n", str(n), *cmd]
+    full_env = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
+    return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd or ROOT, env=full_env,
+                          timeout=timeout)
+
+
+def run_scene(raw: dict, tmp_path: Path, comm=None):
+    """Validate and run raw scene data in this process; returns the RunResult."""
+    from mpi4py import MPI
+
+    from solver import scene as scene_mod
+    from solver.petscutil import init
+    from solver.runner import run
+    init([])
+    raw = copy.deepcopy(raw)
+    raw.setdefault("output", {})
+    raw["output"] = {**(raw["output"] or {}), "file": str(tmp_path / f"{raw['name']}.h5"),
+                     "progress": 0}
+    return run(scene_mod.from_dict(raw), comm or MPI.COMM_SELF, log=lambda *a: None)
+
+
+@pytest.fixture
+def six_dof():
+    return raw_scene("six_dof")

@@ -1,0 +1,38 @@
+"""Run under ``mpiexec -n 2 python -m pytest tests/mpi/mpi_ranks.py``.
+
+The same scene on one rank (each process alone, COMM_SELF) and on two ranks
+(COMM_WORLD, one partition per rank) must give the same histories.
+"""
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from conftest import raw_scene, run_scene
+
+
+@pytest.fixture
+def shared_tmp(tmp_path_factory):
+    path = tmp_path_factory.mktemp("mpi") if MPI.COMM_WORLD.rank == 0 else None
+    return MPI.COMM_WORLD.bcast(path)
+
+
+@pytest.mark.parametrize("treatment,eta", [("taylor", 5), ("layers", 5), ("literal", 20)])
+def test_one_and_two_ranks_agree(treatment, eta, shared_tmp):
+    world = MPI.COMM_WORLD
+    assert world.size == 2
+    raw = raw_scene("six_dof")
+    raw["time"]["end"] = 4.0
+    raw["partitions"][0]["ratio"] = eta
+    raw["coupling"]["external"] = treatment
+    raw["name"] = f"serial_{world.rank}"
+    serial = run_scene(raw, shared_tmp, comm=MPI.COMM_SELF)
+    raw["name"] = "parallel"
+    parallel = run_scene(raw, shared_tmp, comm=world)
+    assert parallel.attrs["ranks"] == 2 and serial.attrs["ranks"] == 1
+    a, b = serial.probes["x3"], parallel.probes["x3"]
+    scale = np.abs(a["displacement"]).max()
+    assert np.abs(a["displacement"] - b["displacement"]).max() <= 1e-12 * scale
+    assert np.abs(a["velocity"] - b["velocity"]).max() <= 1e-12 * np.abs(a["velocity"]).max()
+    assert np.allclose(serial.energy["total"], parallel.energy["total"], rtol=1e-12, atol=0)
+    assert parallel.partitions["fem"]["steps"] == serial.partitions["fem"]["steps"]
+    world.barrier()

@@ -1,0 +1,54 @@
+"""HDF5 layout, and atomic writing: nothing at the final path until complete."""
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+
+from conftest import ROOT, raw_scene, run_cli, write_scene
+
+
+def test_output_layout(tmp_path):
+    raw = raw_scene("six_dof")
+    raw["time"]["end"] = 2.0
+    out = tmp_path / "sub" / "o.h5"
+    raw["output"] = {"file": str(out)}
+    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
+    assert proc.returncode == 0, proc.stderr
+    assert "max relative error" in proc.stdout and str(out) in proc.stdout
+    with h5py.File(out) as f:
+        a = f.attrs
+        assert a["scene"] == "six_dof" and a["status"] == "completed" and a["ranks"] == 1
+        assert a["external_treatment"] == "taylor" and a["wall_time"] > 0
+        assert "six_dof" in a["scene_yaml"]
+        assert f["partitions/fem"].attrs["steps"] == 4000
+        assert f["partitions/dem"].attrs["steps"] == 20000
+        assert f["partitions/dem"].attrs["wall_time"] > 0
+        t = f["probes/x3/t"][()]
+        assert t.shape == (4001,) and np.isclose(t[-1], 2.0)
+        assert f["probes/x3/displacement"].shape == f["probes/x3/velocity"].shape == t.shape
+        assert f["probes/x3"].attrs["max_rel_error"] < 1e-6
+        for k in ("t", "kinetic", "strain", "external_work", "total"):
+            assert f[f"energy/{k}"].shape == f["energy/t"].shape
+    assert sorted(p.name for p in out.parent.iterdir()) == ["o.h5"]
+
+
+def test_interrupted_run_leaves_no_output(tmp_path):
+    raw = raw_scene("six_dof")
+    raw["time"]["end"] = 5000.0
+    out = tmp_path / "o.h5"
+    raw["output"] = {"file": str(out), "progress": 0.2}
+    proc = subprocess.Popen([sys.executable, "-m", "solver", str(write_scene(tmp_path / "s.yaml", raw))],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in proc.stdout:                   # wait until it is stepping
+            if line.startswith("[solver] t ="):
+                break
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    time.sleep(0.1)
+    assert not out.exists() and list(tmp_path.glob("*.h5*")) == []

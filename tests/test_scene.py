@@ -1,0 +1,86 @@
+"""Bad input: one line naming the key and value, exit code 2, no traceback, no output."""
+import pytest
+
+from conftest import ROOT, raw_scene, run_cli, write_scene
+
+CASES = [
+    # (id, mutation of the raw scene, words the message must contain)
+    ("unknown_key", lambda r: r.update(partitons=[]), ["partitons", "unknown key", "partitions"]),
+    ("misspelled_nested", lambda r: r["time"].update(ed=1.0), ["time.ed", "did you mean 'end'"]),
+    ("wrong_type", lambda r: r["time"].update(dt="fast"), ["time.dt", "expected a number", "fast"]),
+    ("node_out_of_range", lambda r: r["partitions"][1]["nodes"].append(9),
+     ["partitions[1].nodes", "node 9", "out of range"]),
+    ("node_owned_twice", lambda r: r["partitions"][0]["nodes"].append(3),
+     ["partitions[1].nodes", "node 3", "'fem' and 'dem'"]),
+    ("node_owned_by_none", lambda r: r["partitions"][1]["nodes"].remove(5),
+     ["partitions", "[5]", "owned by no partition"]),
+    ("nonpositive_mass", lambda r: r["model"]["masses"].__setitem__(2, 0),
+     ["model.masses[2]", "positive", "0"]),
+    ("nonpositive_stiffness", lambda r: r["model"]["springs"][3].__setitem__(2, -1.0),
+     ["model.springs[3]", "positive", "-1"]),
+    ("nonpositive_step", lambda r: r["time"].update(dt=0.0), ["time.dt", "positive"]),
+    ("nonpositive_ratio", lambda r: r["partitions"][0].update(ratio=0),
+     ["partitions[0].ratio", "positive", "0"]),
+    ("ratio_not_dividing", lambda r: r["partitions"][1].update(ratio=2),
+     ["partitions[1].ratio", "2", "does not divide"]),
+    ("spring_node_out_of_range", lambda r: r["model"]["springs"].append([5, 6, 1.0]),
+     ["model.springs[6]", "node 6", "out of range"]),
+    ("probe_node_out_of_range", lambda r: r["probes"][0].update(node=42),
+     ["probes[0].node", "42"]),
+    ("load_missing_omega", lambda r: r["loads"][0].pop("omega"), ["loads[0].omega", "required"]),
+    ("bad_choice", lambda r: r["coupling"].update(external="magic"),
+     ["coupling.external", "magic", "taylor"]),
+    ("unsupported_combination", lambda r: r["partitions"][0].update(integrator="verlet"),
+     ["partitions[0].integrator", "fem", "verlet"]),
+]
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_bad_scene_is_refused_in_one_line(case, tmp_path):
+    _, mutate, words = case
+    raw = raw_scene("six_dof")
+    out = tmp_path / "out.h5"
+    raw["output"] = {"file": str(out)}
+    mutate(raw)
+    proc = run_cli([write_scene(tmp_path / "bad.yaml", raw)])
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("error: ") and "Traceback" not in proc.stderr
+    for word in words:
+        assert word in lines[0], f"{word!r} not in {lines[0]!r}"
+    assert not out.exists() and not list(tmp_path.glob(".out.h5*"))
+
+
+def test_missing_scene_file(tmp_path):
+    proc = run_cli([tmp_path / "nope.yaml"])
+    assert proc.returncode == 2
+    assert "nope.yaml" in proc.stderr and "not found" in proc.stderr
+
+
+def test_override_of_unknown_item(tmp_path):
+    proc = run_cli(["configs/six_dof.yaml", "--set", "partitions.solid.ratio=2"])
+    assert proc.returncode == 2
+    assert "partitions.solid" in proc.stderr and "no item named" in proc.stderr
+
+
+def test_yaml12_floats_and_overrides():
+    from solver.scene import load
+    scene = load("configs/six_dof.yaml", ["time.dt=2e-4", "partitions.fem.ratio=10",
+                                          "coupling.external=literal"])
+    assert scene.time.dt == 2e-4
+    assert scene.partitions[0].ratio == 10 and scene.system_dt == pytest.approx(2e-3)
+    assert scene.coupling.external == "literal"
+
+
+def test_every_key_is_documented():
+    from solver.scene import Scene
+    from solver.schema import describe
+    rows = describe(Scene)
+    names = {r[0] for r in rows}
+    assert {"time.dt", "partitions[].ratio", "coupling.external", "guard.energy_bound",
+            "loads[].duration", "output.energy_every"} <= names
+    assert all(doc for _, _, _, doc in rows)
+    docs = (ROOT / "docs" / "scene.md").read_text()
+    missing = [n for n in names if f"`{n}`" not in docs]
+    assert not missing, f"docs/scene.md does not document {missing}"

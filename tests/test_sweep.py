@@ -1,0 +1,24 @@
+"""The sweep command writes the error-against-run-time table and plots."""
+import csv
+import subprocess
+import sys
+
+from conftest import ROOT
+
+
+def test_sweep_table(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "solver.sweep", "configs/six_dof.yaml",
+                           "--ratios", "1,4", "--treatments", "taylor,literal", "-n", "1,2",
+                           "--set", "time.end=1.0", "--out", str(tmp_path)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(tmp_path / "sweep.csv")))
+    assert [(r["ranks"], r["treatment"], r["eta"]) for r in rows] == [
+        (n, t, e) for n in "12" for t in ("taylor", "literal") for e in "14"]
+    for r in rows:
+        assert 0 < float(r["max_rel_error"]) < 1e-6
+        assert float(r["stepping_s"]) > 0
+        assert int(r["fem_steps"]) == 10000 // int(r["eta"])
+    assert float(rows[0]["speedup"]) == 1.0
+    assert (tmp_path / "sweep.png").stat().st_size > 10000
+    assert "| ranks | treatment | η |" in (tmp_path / "sweep.md").read_text()
