@@ -106,6 +106,10 @@ def main(argv=None) -> int:
         if rank == 0:
             for line in summary(result, scene.output_file):
                 print(line, flush=True)
+            from .petscutil import unused_options
+            for name in unused_options():
+                print(f"warning: PETSc option {name} was not used (misspelled, or a prefix that "
+                      "names no partition?)", file=sys.stderr, flush=True)
         return 0
     except SolverError as e:
         if rank == 0:

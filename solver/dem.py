@@ -31,5 +31,5 @@ class DemPartition(Partition):
         B.setName(f"{self.name}_bonds")
         self.built = [f"particles {n_p} ({layout.n_owned} owned), fields "
                       f"{', '.join(self.fields)}",
-                      f"bonds {self.bond_k.size} -> bond operator AIJ ({B.getType()})"]
+                      f"bonds {self.bond_k.size} -> bond operator (type {B.getType()})"]
         return B

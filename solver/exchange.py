@@ -54,9 +54,8 @@ class Exchange:
         for _, owned, g_view, _, _ in self._copies:
             np.copyto(g_view, owned)
         self.scatter.scatter(self.G, self.X, self._insert, self._forward)
-        for p, _, _, x_view, external in self._copies:
+        for _, _, _, x_view, external in self._copies:
             np.copyto(external, x_view)
-            p.after_exchange()
 
     def destroy(self):
         for obj in (self.scatter, self.is_from, self.is_to, self.G, self.X):

@@ -16,6 +16,7 @@ class FemPartition(Partition):
         rows, cols, vals = model.stiffness_triplets(layout.held)
         K = aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=-1.0)
         K.setName(f"{self.name}_stiffness")
-        self.built = [f"stiffness AIJ {K.getSize()[0]}x{K.getSize()[1]} "
-                      f"({int(K.getInfo()['nz_used'])} nonzeros, type {K.getType()})", "lumped mass"]
+        n = K.getSize()[0]
+        self.built = [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
+                      f"type {K.getType()})", "lumped mass"]
         return K

@@ -52,9 +52,14 @@ class Partition:
         for name in self.integrator.work:
             setattr(self, name, vec_on(np.zeros(n), comm))
         self.mass = np.repeat(model.mass[held], dof)
-        self.minv = vec_on(1.0 / self.mass, comm)
+        self._minv = 1.0 / self.mass
+        self.minv = vec_on(self._minv, comm)
+        # taylor: the acceleration solve covers the owned DOFs only, so external
+        # accelerations keep their exchanged values through the sub-steps
         self.frozen = treatment == "taylor" and n > self.n_own
-        self.A_ext = np.zeros(n - self.n_own)
+        m = self.n_own if self.frozen else n
+        self._solve = (vec_on(self.A[:m], comm), vec_on(self.R[:m], comm),
+                       vec_on(self._minv[:m], comm))
         self._setup_loads(model, layout)
         self.Kneg = self.build_operator(model, layout)
         self.steps = 0
@@ -102,9 +107,8 @@ class Partition:
 
     def accelerate(self):
         """a = M^-1 r; under the taylor treatment external a keeps its exchanged value."""
-        self.a.pointwiseMult(self.r, self.minv)
-        if self.frozen:
-            self.A[self.n_own:] = self.A_ext
+        a, r, minv = self._solve
+        a.pointwiseMult(r, minv)
 
     def initialise(self, model):
         """Initial state and a_0 = M^-1 (f(0) - K u_0) on the held DOFs."""
@@ -113,10 +117,6 @@ class Partition:
         self.residual(0.0, self.u, self.v)
         self.a.pointwiseMult(self.r, self.minv)
         self._power = self._owned_power()
-
-    def after_exchange(self):
-        if self.frozen:
-            self.A_ext[:] = self.A[self.n_own:]
 
     def _owned_power(self) -> float:
         V, f = self.V, self.f_last
@@ -154,6 +154,8 @@ class Partition:
     def destroy(self):
         for name in ("u", "v", "a", "r", "minv", "Kneg", *self.integrator.work):
             getattr(self, name).destroy()
+        for vec in self._solve:
+            vec.destroy()
 
 
 def _ids(nodes, limit=6) -> str:

@@ -24,8 +24,17 @@ def init(argv=None):
     return PETSc
 
 
-def PETSc():
-    return init()
+# consumed at PetscFinalize or by the options machinery itself
+_LATE = ("log_view", "options_left", "options_view", "options_file", "memory_view", "malloc",
+         "help", "checkstack")
+
+
+def unused_options() -> list[str]:
+    """PETSc options given (command line or options file) that nothing used,
+    e.g. a misspelled ``-fem_mat_tpye`` or a prefix that names no partition."""
+    opts = init().Options()
+    return sorted(f"-{name}" for name in opts.getAll()
+                  if not name.startswith(_LATE) and not opts.used(name))
 
 
 def vec_on(array: np.ndarray, comm, size=None):

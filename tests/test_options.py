@@ -22,4 +22,13 @@ def test_prefixed_options_from_an_options_file(tmp_path):
     opts.write_text("-fem_mat_type baij\n-dem_mat_type sell\n")
     proc = run_cli([_short(tmp_path), "-options_file", opts])
     assert proc.returncode == 0, proc.stderr
-    assert "type seqbaij" in proc.stdout and "(seqsell)" in proc.stdout
+    assert "type seqbaij" in proc.stdout and "type seqsell" in proc.stdout
+    assert "warning" not in proc.stderr
+
+
+def test_unused_options_are_reported(tmp_path):
+    proc = run_cli([_short(tmp_path), "-fem_mat_tpye", "baij", "-solid_mat_type", "aij"])
+    assert proc.returncode == 0, proc.stderr
+    warned = [line for line in proc.stderr.splitlines() if line.startswith("warning")]
+    assert len(warned) == 2
+    assert "-fem_mat_tpye" in warned[0] and "-solid_mat_type" in warned[1]
