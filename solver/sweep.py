@@ -72,31 +72,37 @@ def markdown(rows) -> str:
 
 
 def plot(rows, path, title):
+    """Three panels: error vs eta, error vs wall time, wall time vs eta.
+    Colour = treatment, line style = rank count (solid 1, dashed 2, ...)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
-    keys = sorted({(r["ranks"], r["treatment"]) for r in rows})
-    for ranks, treat in keys:
-        sel = [r for r in rows if r["ranks"] == ranks and r["treatment"] == treat]
-        eta = [r["eta"] for r in sel]
-        label = f"{treat}, {ranks} rank(s)"
-        ax1.loglog([r["stepping_s"] for r in sel], [r["max_rel_error"] for r in sel], "o-",
-                   label=label)
-        for r in sel:
-            ax1.annotate(f"η={r['eta']}", (r["stepping_s"], r["max_rel_error"]), fontsize=7,
-                         xytext=(3, 3), textcoords="offset points")
-        ax2.plot(eta, [r["stepping_s"] for r in sel], "o-", label=label)
-    ax1.set_xlabel("stepping wall time [s]")
-    ax1.set_ylabel("max relative error of the probe")
-    ax1.set_title("error against run time")
-    ax2.set_xlabel("step ratio η")
-    ax2.set_ylabel("stepping wall time [s]")
-    ax2.set_xscale("log")
-    ax2.set_title("run time per η")
-    for ax in (ax1, ax2):
+    fig, (ax0, ax1, ax2) = plt.subplots(1, 3, figsize=(15, 4.4))
+    treatments = list(dict.fromkeys(r["treatment"] for r in rows))
+    ranks = list(dict.fromkeys(r["ranks"] for r in rows))
+    styles = ["-", "--", ":", "-."]
+    for ti, treat in enumerate(treatments):
+        for ri, n in enumerate(ranks):
+            sel = [r for r in rows if r["ranks"] == n and r["treatment"] == treat]
+            kw = dict(color=f"C{ti}", ls=styles[ri % 4], marker="o", ms=4,
+                      label=f"{treat}, {n} rank{'s' if n > 1 else ''}")
+            eta = [r["eta"] for r in sel]
+            err = [r["max_rel_error"] for r in sel]
+            wall = [r["stepping_s"] for r in sel]
+            ax0.loglog(eta, err, **kw)
+            ax1.loglog(wall, err, **kw)
+            ax2.semilogx(eta, wall, **kw)
+            if ti == 0 and ri == 0:
+                for r in sel:
+                    ax1.annotate(f"η={r['eta']}", (r["stepping_s"], r["max_rel_error"]),
+                                 fontsize=7, xytext=(4, -9), textcoords="offset points")
+    ax0.set(xlabel="step ratio η", ylabel="max relative error of the probe", title="error per η")
+    ax1.set(xlabel="stepping wall time [s]", ylabel="max relative error of the probe",
+            title="error against run time")
+    ax2.set(xlabel="step ratio η", ylabel="stepping wall time [s]", title="run time per η")
+    for ax in (ax0, ax1, ax2):
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+    ax2.legend(fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
