@@ -22,20 +22,29 @@ class Exchange:
         self.G = vec_on(self.G_arr, comm, size=(local_size, int(offset[-1])))
         src, dst, blocks = [], [], []
         g_at, x_at = 0, 0
+        comp = np.arange(dof)
         for p in parts:
             lay = p.layout
             n_own, n_ext = p.n_own, p.state.shape[1] - p.n_own
-            ext = lay.external
-            for e, (node, q) in enumerate(zip(ext, lay.external_owner)):
-                pos = int(np.searchsorted(layouts[q].owned, node))
-                nq = layouts[q].n_owned * dof
-                for c in range(dof):
-                    for f in range(3):
-                        src.append(offset[q] + f * nq + pos * dof + c)
-                        dst.append(x_at + f * n_ext + e * dof + c)
+            ext, owners = lay.external, lay.external_owner
+            # position of every external node in its owner's owned list
+            pos = np.empty(ext.size, dtype=np.int64)
+            for q in np.unique(owners):
+                sel = owners == q
+                pos[sel] = np.searchsorted(layouts[q].owned, ext[sel])
+            n_q = np.array([layouts[q].n_owned * dof for q in owners], dtype=np.int64)
+            e_dof = (np.arange(ext.size)[:, None] * dof + comp).ravel()      # local external DOF
+            q_dof = (pos[:, None] * dof + comp).ravel()                     # owner's owned DOF
+            base = np.repeat(offset[owners], dof)
+            stride = np.repeat(n_q, dof)
+            for f in range(3):                                              # u, v, a blocks
+                src.append(base + f * stride + q_dof)
+                dst.append(x_at + f * n_ext + e_dof)
             blocks.append((p, g_at, n_own, x_at, n_ext))
             g_at += 3 * n_own
             x_at += 3 * n_ext
+        src = np.concatenate(src) if src else np.zeros(0, dtype=np.int64)
+        dst = np.concatenate(dst) if dst else np.zeros(0, dtype=np.int64)
         self.X_arr = np.zeros(x_at)
         self.X = vec_on(self.X_arr, P.COMM_SELF)
         self.is_from = P.IS().createGeneral(np.asarray(src, dtype=P.IntType), comm=P.COMM_SELF)

@@ -1,13 +1,12 @@
 """One run of a scene: build partitions, guard, step, exchange, record, report.
 
 On one rank every partition runs in this process; on as many ranks as
-partitions, partition p runs on rank p and all of them advance concurrently
-within a system step, meeting at the exchange.  Both orders give the same
-numbers: partitions only see each other's data through the exchange.
+partitions, partition p runs on rank p.  What a system step does is the
+coupling scheme's business (:mod:`solver.coupling`); what is watched while
+stepping is :mod:`solver.monitor`'s.
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -15,11 +14,13 @@ import numpy as np
 
 from . import model as model_mod
 from . import overlap, reference, stability
+from .coupling import SCHEMES
 from .dem import DemPartition
 from .errors import LaunchError, RunFailed, StabilityError
 from .exchange import Exchange
 from .fem import FemPartition
-from .petscutil import Stage, init
+from .monitor import EnergyGuard, Probes
+from .petscutil import init
 
 PARTITION_TYPES = {"fem": FemPartition, "dem": DemPartition}
 
@@ -104,110 +105,26 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
 
     need_exchange = any(lay.layers for lay in layouts)
     exchange = Exchange(comm, layouts, parts, mdl.dof) if need_exchange else None
+    scheme = SCHEMES[scene.coupling.scheme](parts, exchange)
     if exchange:
-        say(f"[solver]   exchange: VecScatter of (u, v, a) once per system step, external-data "
-            f"treatment '{treatment}', scheme '{scene.coupling.scheme}'")
+        say(f"[solver]   exchange: VecScatter of (u, v, a) once per system step, {exchange.values} "
+            f"values on this rank; external-data treatment '{treatment}'; {scheme.describe()}")
     not_built = ["KSP (all partitions explicit)", "neighbour search (no contacts)"]
     if not exchange:
         not_built.insert(0, "exchange (single partition)")
     say(f"[solver]   not built: {', '.join(not_built)}")
 
-    for part in parts:
-        part.initialise(mdl)
-    if exchange:
-        exchange()
-
-    # probes owned here
+    scheme.initialise(mdl)
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
-    by_index = {part.layout.index: part for part in parts}
-    t_axis = np.arange(n_sys + 1) * Dt
-    rec = []
-    for probe in scene.probes:
-        part = by_index.get(int(owner[probe.node]))
-        if part is None:
-            continue
-        i = part.local_index(probe.node, probe.component)
-        rec.append((probe, part.U, part.V, i, np.empty(n_sys + 1), np.empty(n_sys + 1)))
-    for _, U, V, i, bu, bv in rec:
-        bu[0], bv[0] = U[i], V[i]
+    probes = Probes(scene.probes, {p.layout.index: p for p in parts}, owner, n_sys)
+    every = (scene.output.energy_every if scene.output and scene.output.energy_every
+             else max(1, n_sys // 2000))
+    guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound)
 
-    every = scene.output.energy_every if scene.output and scene.output.energy_every else \
-        max(1, n_sys // 2000)
-    energy = {"t": [], "kinetic": [], "strain": [], "external_work": []}
-
-    def sample(s):
-        local = np.zeros(3)
-        for part in parts:
-            local += part.energies()
-        tot = comm.allreduce(local, op=MPI.SUM) if size > 1 else local
-        energy["t"].append(s * Dt)
-        energy["kinetic"].append(tot[0])
-        energy["strain"].append(tot[1])
-        energy["external_work"].append(tot[2])
-        return tot
-
-    e0 = sample(0)
-    E0 = float(e0[0] + e0[1])
-    max_work = 0.0
-    bound = scene.guard.energy_bound
-    failure = None
-
-    stages = {part.name: Stage(part.name) for part in parts}
-    stage_x = Stage("exchange")
-    x_wall = 0.0
-    progress = scene.output.progress if scene.output else 10.0
-    clock = time.perf_counter
-    t_loop = clock()
-    last_report = t_loop
-    s = 0
-    for s in range(n_sys):
-        t0 = s * Dt
-        for part in parts:
-            st = stages[part.name]
-            st.push()
-            c0 = clock()
-            part.advance(t0)
-            part.wall += clock() - c0
-            st.pop()
-        if exchange:
-            stage_x.push()
-            c0 = clock()
-            exchange()
-            x_wall += clock() - c0
-            stage_x.pop()
-        k = s + 1
-        for _, U, V, i, bu, bv in rec:
-            bu[k] = U[i]
-            bv[k] = V[i]
-        if k % every == 0 or k == n_sys:
-            kin, strain, work = sample(k)
-            total = kin + strain
-            max_work = max(max_work, abs(work))
-            if not (math.isfinite(total) and math.isfinite(work)):
-                failure = f"non-finite state at t = {k * Dt:.6g} s (system step {k})"
-            elif total > bound * (E0 + max_work) and total > 1e-300:
-                failure = (f"energy grew to {total:.4g} J at t = {k * Dt:.6g} s, above "
-                           f"guard.energy_bound {bound:g} x (initial energy {E0:.4g} J + largest "
-                           f"|external work| {max_work:.4g} J): the run is unstable")
-            if failure:
-                break
-        if progress and rank == 0 and (k & 255) == 0:
-            now = clock()
-            if now - last_report >= progress:
-                last_report = now
-                frac = k / n_sys
-                el = now - t_loop
-                say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * frac:.0f}%), "
-                    f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
-    loop_wall = clock() - t_loop
-    done = s + 1 if n_sys else 0
+    failure, done, loop_wall = step_loop(scene, scheme, probes, guard, say if rank == 0 else None)
 
     # ---- gather results on every rank (small: probes and attributes)
-    local_probes = {probe.name: {"t": t_axis[:done + 1], "displacement": bu[:done + 1],
-                                 "velocity": bv[:done + 1],
-                                 "attrs": {"node": probe.node, "component": probe.component,
-                                           "partition": part_name(scene, owner, probe.node)}}
-                    for probe, _, _, _, bu, bv in rec}
+    x_wall = scheme.exchange_wall
     local_parts = {part.name: {
         "method": part.method, "integrator": part.integrator.describe(),
         "ratio": part.spec.ratio, "dt": part.dt, "steps": part.steps, "wall_time": part.wall,
@@ -216,23 +133,23 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
         "omega_max": freqs[part.name].omega_max,
         "critical_step": freqs[part.name].critical_step(),
         "exchange_wall_time": x_wall} for part in parts}
-    probes, part_attrs = {}, {}
-    for pr, pa in comm.allgather((local_probes, local_parts)):
-        probes.update(pr)
+    t_axis = np.arange(n_sys + 1) * Dt
+    gathered, part_attrs = {}, {}
+    for pr, pa in comm.allgather((probes.histories(t_axis, done), local_parts)):
+        gathered.update(pr)
         part_attrs.update(pa)
-    probes = {p.name: probes[p.name] for p in scene.probes}
+    histories = {p.name: gathered[p.name] for p in scene.probes}
     part_attrs = {p.name: part_attrs[p.name] for p in scene.partitions}
 
     status = "failed" if failure else "completed"
     attrs = {"scene": scene.name, "status": status, "message": failure or "", "ranks": size,
-             "wall_time": clock() - t_start, "stepping_wall_time": loop_wall,
+             "wall_time": time.perf_counter() - t_start, "stepping_wall_time": loop_wall,
              "exchange_wall_time": max(comm.allgather(x_wall)),
              "scheme": scene.coupling.scheme, "external_treatment": treatment,
              "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
              "t_end": done * Dt, "reference": scene.reference, "scene_yaml": scene_text}
-    result = RunResult(attrs, part_attrs, probes, {k: np.asarray(v) for k, v in energy.items()})
-    result.energy["total"] = result.energy["kinetic"] + result.energy["strain"]
-    if scene.reference == "modal" and not failure and probes:
+    result = RunResult(attrs, part_attrs, histories, guard.arrays())
+    if scene.reference == "modal" and not failure and histories:
         add_modal_reference(result, mdl, scene)
     for part in parts:
         part.destroy()
@@ -246,8 +163,30 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     return result
 
 
-def part_name(scene, owner, node) -> str:
-    return scene.partitions[int(owner[node])].name
+def step_loop(scene, scheme, probes, guard, say):
+    """Advance system steps to the end or the first guard failure.
+
+    Returns (failure message or None, system steps done, stepping wall time)."""
+    n_sys, Dt = scene.n_system_steps, scene.system_dt
+    progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
+    every = guard.every
+    clock = time.perf_counter
+    t_loop = last = clock()
+    failure, k = None, 0
+    for s in range(n_sys):
+        scheme.step(s * Dt)
+        k = s + 1
+        probes.record(k)
+        if k % every == 0 or k == n_sys:
+            failure = guard.check(k)
+            if failure:
+                break
+        if progress and (k & 255) == 0 and clock() - last >= progress:
+            last = clock()
+            frac, el = k / n_sys, last - t_loop
+            say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * frac:.0f}%), "
+                f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
+    return failure, k, clock() - t_loop
 
 
 def relative_errors(x, ref):
