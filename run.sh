@@ -5,6 +5,7 @@
 #   ./run.sh test                    run the test suite (serial and mpiexec -n 2)
 #   ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [PETSc options]
 #   ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 2]
+#   ./run.sh plot RESULT.h5           plot probes vs reference, error, energies
 #   ./run.sh bench                   run the benchmark scripts
 #
 # Every form first installs what is missing (idempotent): Debian's MPICH and
@@ -89,6 +90,10 @@ case "${1:-}" in
   sweep)
     shift
     exec "$PY" -m solver.sweep "${nproc_arg[@]}" "$@"
+    ;;
+  plot)
+    shift
+    exec "$PY" -m solver.plot "$@"
     ;;
   bench)
     shift

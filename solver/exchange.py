@@ -50,6 +50,8 @@ class Exchange:
         self.is_from = P.IS().createGeneral(np.asarray(src, dtype=P.IntType), comm=P.COMM_SELF)
         self.is_to = P.IS().createGeneral(np.asarray(dst, dtype=P.IntType), comm=P.COMM_SELF)
         self.scatter = P.Scatter().create(self.G, self.is_from, self.X, self.is_to)
+        for obj in (self.G, self.X, self.scatter):
+            obj.setOptionsPrefix("exchange_")
         self.values = x_at
         self._copies = []
         for p, g0, n_own, x0, n_ext in blocks:

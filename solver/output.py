@@ -3,8 +3,10 @@
 Layout::
 
     /                  attrs: scene, status (completed|failed), message, ranks,
-                       wall_time, scheme, external_treatment, system_dt,
-                       n_system_steps, t_end, scene_yaml
+                       wall_time, stepping_wall_time, exchange_wall_time, scheme,
+                       external_treatment, system_dt, base_dt, n_system_steps,
+                       t_end, reference, scene_yaml, steps_<partition>,
+                       wall_time_<partition>
     /partitions/<name> attrs: method, integrator, ratio, dt, steps, wall_time,
                        n_owned, n_external, layers, omega_max, critical_step
     /probes/<name>/t, displacement, velocity [, reference_displacement]

@@ -61,6 +61,8 @@ class Partition:
         self._solve = (vec_on(self.A[:m], comm), vec_on(self.R[:m], comm),
                        vec_on(self._minv[:m], comm))
         self._setup_loads(model, layout)
+        for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
+            getattr(self, name).setOptionsPrefix(self.prefix)
         self.Kneg = self.build_operator(model, layout)
         self.steps = 0
         self.wall = 0.0

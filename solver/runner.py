@@ -148,6 +148,9 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
              "scheme": scene.coupling.scheme, "external_treatment": treatment,
              "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
              "t_end": done * Dt, "reference": scene.reference, "scene_yaml": scene_text}
+    for name, pa in part_attrs.items():
+        attrs[f"steps_{name}"] = pa["steps"]
+        attrs[f"wall_time_{name}"] = pa["wall_time"]
     result = RunResult(attrs, part_attrs, histories, guard.arrays())
     if scene.reference == "modal" and not failure and histories:
         add_modal_reference(result, mdl, scene)

@@ -26,6 +26,7 @@ def test_output_layout(tmp_path):
         assert f["partitions/fem"].attrs["steps"] == 4000
         assert f["partitions/dem"].attrs["steps"] == 20000
         assert f["partitions/dem"].attrs["wall_time"] > 0
+        assert a["steps_fem"] == 4000 and a["steps_dem"] == 20000 and a["wall_time_fem"] > 0
         t = f["probes/x3/t"][()]
         assert t.shape == (4001,) and np.isclose(t[-1], 2.0)
         assert f["probes/x3/displacement"].shape == f["probes/x3/velocity"].shape == t.shape
@@ -52,3 +53,22 @@ def test_interrupted_run_leaves_no_output(tmp_path):
         proc.kill()
     time.sleep(0.1)
     assert not out.exists() and list(tmp_path.glob("*.h5*")) == []
+
+
+def test_plot_command_on_completed_and_failed_runs(tmp_path):
+    raw = raw_scene("six_dof")
+    raw["time"]["end"] = 2.0
+    raw["output"] = {"file": str(tmp_path / "ok.h5")}
+    assert run_cli([write_scene(tmp_path / "ok.yaml", raw)]).returncode == 0
+    raw["time"] = {"end": 500.0, "dt": 0.25}
+    raw["guard"] = {"stable_step": False}
+    raw["output"] = {"file": str(tmp_path / "bad.h5")}
+    assert run_cli([write_scene(tmp_path / "bad.yaml", raw)]).returncode == 3
+    for name in ("ok", "bad"):
+        proc = subprocess.run([sys.executable, "-m", "solver.plot", str(tmp_path / f"{name}.h5")],
+                              cwd=ROOT, capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        assert (tmp_path / f"{name}.png").stat().st_size > 20000
+    proc = subprocess.run([sys.executable, "-m", "solver.plot", str(tmp_path / "none.h5")],
+                          cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 2 and "none.h5" in proc.stderr

@@ -1,17 +1,18 @@
 """Two ranks: end to end through mpiexec, the in-process MPI tests, launch errors."""
+import subprocess
 import sys
 
 import h5py
 import numpy as np
+import pytest
 
 from conftest import ROOT, mpiexec, raw_scene, run_cli, write_scene
-import subprocess
 
 
-def test_two_rank_run_matches_one_rank(tmp_path):
+@pytest.mark.parametrize("eta", [1, 2, 5, 10, 20])
+def test_two_rank_run_matches_one_rank(eta, tmp_path):
     raw = raw_scene("six_dof")
-    raw["time"]["end"] = 20.0
-    raw["partitions"][0]["ratio"] = 20
+    raw["partitions"][0]["ratio"] = eta
     files = {}
     for n in (1, 2):
         raw["output"] = {"file": str(tmp_path / f"n{n}.h5")}
