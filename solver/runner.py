@@ -58,17 +58,31 @@ def check_stability(scene, mdl, layouts, ids):
     return freqs, problems
 
 
-def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
-    """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output."""
+@dataclass
+class Assembly:
+    """Everything a run steps: the model, all layouts, this rank's partitions,
+    the exchange (None with a single partition) and the coupling scheme."""
+
+    model: object
+    layouts: list
+    parts: list
+    exchange: object
+    scheme: object
+    freqs: dict
+
+    def destroy(self):
+        for part in self.parts:
+            part.destroy()
+        if self.exchange:
+            self.exchange.destroy()
+
+
+def build(scene, comm, say=_silent) -> Assembly:
+    """Check the launch and the steps, then build this rank's share of the run."""
     from mpi4py import MPI
 
-    from . import output
-
-    t_start = time.perf_counter()
-    comm = comm or MPI.COMM_WORLD
     init()
     rank, size = comm.rank, comm.size
-    say = log if rank == 0 else _silent
     n_part = len(scene.partitions)
     if size not in (1, n_part):
         raise LaunchError(f"scene '{scene.name}' has {n_part} partitions: run it on 1 or "
@@ -113,8 +127,24 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     if not exchange:
         not_built.insert(0, "exchange (single partition)")
     say(f"[solver]   not built: {', '.join(not_built)}")
-
     scheme.initialise(mdl)
+    return Assembly(mdl, layouts, parts, exchange, scheme, freqs)
+
+
+def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
+    """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output."""
+    from mpi4py import MPI
+
+    from . import output
+
+    t_start = time.perf_counter()
+    comm = comm or MPI.COMM_WORLD
+    rank, size = comm.rank, comm.size
+    say = log if rank == 0 else _silent
+    asm = build(scene, comm, say)
+    mdl, parts, scheme, freqs = asm.model, asm.parts, asm.scheme, asm.freqs
+    n_sys, Dt = scene.n_system_steps, scene.system_dt
+
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
     probes = Probes(scene.probes, {p.layout.index: p for p in parts}, owner, n_sys)
     every = (scene.output.energy_every if scene.output and scene.output.energy_every
@@ -145,7 +175,7 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     attrs = {"scene": scene.name, "status": status, "message": failure or "", "ranks": size,
              "wall_time": time.perf_counter() - t_start, "stepping_wall_time": loop_wall,
              "exchange_wall_time": max(comm.allgather(x_wall)),
-             "scheme": scene.coupling.scheme, "external_treatment": treatment,
+             "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
              "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
              "t_end": done * Dt, "reference": scene.reference, "scene_yaml": scene_text}
     for name, pa in part_attrs.items():
@@ -154,10 +184,7 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     result = RunResult(attrs, part_attrs, histories, guard.arrays())
     if scene.reference == "modal" and not failure and histories:
         add_modal_reference(result, mdl, scene)
-    for part in parts:
-        part.destroy()
-    if exchange:
-        exchange.destroy()
+    asm.destroy()
     if rank == 0:
         output.write(scene.output_file, result)
     comm.barrier()
