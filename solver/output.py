@@ -23,6 +23,22 @@ import h5py
 import numpy as np
 
 
+def check_writable(path: str) -> str | None:
+    """Why ``path`` cannot be written (None if it can): checked before stepping,
+    so a long run does not die at the end on a bad output path."""
+    target = Path(path)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        probe = target.with_name(f".{target.name}.check-{os.getpid()}")
+        probe.touch()
+        probe.unlink()
+    except OSError as e:
+        return f"output.file: cannot write {path}: {e.strerror or e}"
+    if target.is_dir():
+        return f"output.file: {path} is a directory"
+    return None
+
+
 def write(path: str, result) -> None:
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)

@@ -16,7 +16,7 @@ from . import model as model_mod
 from . import overlap, reference, stability
 from .coupling import SCHEMES
 from .dem import DemPartition
-from .errors import LaunchError, RunFailed, StabilityError
+from .errors import LaunchError, RunFailed, SceneError, StabilityError
 from .exchange import Exchange
 from .fem import FemPartition
 from .monitor import EnergyGuard, Probes
@@ -141,6 +141,9 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     comm = comm or MPI.COMM_WORLD
     rank, size = comm.rank, comm.size
     say = log if rank == 0 else _silent
+    problem = comm.bcast(output.check_writable(scene.output_file) if rank == 0 else None)
+    if problem:
+        raise SceneError(problem)
     asm = build(scene, comm, say)
     mdl, parts, scheme, freqs = asm.model, asm.parts, asm.scheme, asm.freqs
     n_sys, Dt = scene.n_system_steps, scene.system_dt

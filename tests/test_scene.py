@@ -84,3 +84,13 @@ def test_every_key_is_documented():
     docs = (ROOT / "docs" / "scene.md").read_text()
     missing = [n for n in names if f"`{n}`" not in docs]
     assert not missing, f"docs/scene.md does not document {missing}"
+
+
+def test_unwritable_output_is_refused_before_stepping(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")                       # a file where a directory is needed
+    proc = run_cli(["configs/six_dof.yaml", "--set", f"output.file={blocker}/o.h5"])
+    assert proc.returncode == 2
+    line, = proc.stderr.strip().splitlines()
+    assert line.startswith("error: output.file: cannot write") and str(blocker) in line
+    assert "[solver] t =" not in proc.stdout and "system steps" not in proc.stdout
