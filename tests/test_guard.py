@@ -29,6 +29,7 @@ def _blowup(tmp_path, bound):
 def test_energy_growth_stops_the_run_and_marks_the_file(tmp_path):
     proc, out = _blowup(tmp_path, 10.0)
     assert proc.returncode == 3, proc.stderr
+    assert "warning: partition 'fem'" in proc.stdout and "running anyway" in proc.stdout
     line, = proc.stderr.strip().splitlines()
     assert "energy grew" in line and "guard.energy_bound" in line and "marked failed" in line
     with h5py.File(out) as f:
