@@ -97,7 +97,7 @@ def spring_triplets(li, lj, k):
 def build(scene: Scene) -> Model:
     """Arrays of the scene's network model."""
     net = scene.model
-    n = net.n_nodes
+    n, dof = net.n_nodes, 1
     si = np.array([s.i for s in net.springs], dtype=np.int64)
     sj = np.array([s.j for s in net.springs], dtype=np.int64)
     sk = np.array([s.stiffness for s in net.springs], dtype=float)
@@ -106,6 +106,6 @@ def build(scene: Scene) -> Model:
         u0[node] = value
     for node, value in scene.initial.velocity.items():
         v0[node] = value
-    loads = tuple(PointLoad(l.node * 1 + l.component, load_function(l)) for l in scene.loads)
-    return Model(dof=1, mass=np.asarray(net.masses, dtype=float), spring_i=si, spring_j=sj,
+    loads = tuple(PointLoad(l.node * dof + l.component, load_function(l)) for l in scene.loads)
+    return Model(dof=dof, mass=np.asarray(net.masses, dtype=float), spring_i=si, spring_j=sj,
                  spring_k=sk, loads=loads, u0=u0, v0=v0)

@@ -95,12 +95,11 @@ def convert(tp, value, path: str, meta=None):
         inner = [a for a in args if a is not type(None)]
         if len(inner) == 1:
             return convert(inner[0], value, path, {**meta, "parse": None})
-        errors = []
         for a in inner:
             try:
                 return convert(a, value, path, {**meta, "parse": None})
-            except SceneError as e:
-                errors.append(str(e))
+            except SceneError:
+                pass
         fail(path, f"{value!r} is not {' or '.join(type_name(a) for a in inner)}")
     if origin is Literal:
         if value not in args:
