@@ -14,7 +14,7 @@ import sys
 from .errors import LaunchError, SolverError
 
 USAGE = """usage: python -m solver SCENE.yaml [--set key.path=value ...] [PETSc options]
-       python -m solver keys [--markdown] | schemes
+       python -m solver keys [--markdown [--update docs/scene.md]] | schemes
 PETSc options (e.g. -options_file configs/x.opts, -log_view, -fem_mat_type baij) go to PETSc;
 every partition's PETSc objects carry the prefix <partition name>_ ."""
 
@@ -52,15 +52,30 @@ def check_launch(comm):
                 "SCENE.yaml' or that library's mpiexec")
 
 
+def keys_markdown() -> str:
+    from .scene import Scene
+    from .schema import describe
+    lines = ["| key | type | default | meaning |", "|---|---|---|---|"]
+    for name, tp, default, doc in describe(Scene):
+        cells = [c.replace("|", "\\|") for c in (tp, default, doc)]
+        lines.append(f"| `{name}` | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def update_docs(path: str):
+    """Replace the generated key table between the markers of ``path``."""
+    import re
+    text = open(path).read()
+    new = re.sub(r"(<!-- keys:.*?-->\n).*?(<!-- /keys -->)",
+                 lambda m: f"{m.group(1)}{keys_markdown()}\n{m.group(2)}", text, flags=re.S)
+    open(path, "w").write(new)
+
+
 def print_keys(markdown=False):
     from .scene import Scene
     from .schema import describe
-    rows = describe(Scene)
     if markdown:
-        print("| key | type | default | meaning |\n|---|---|---|---|")
-        for name, tp, default, doc in rows:
-            cells = [c.replace("|", "\\|") for c in (tp, default, doc)]
-            print(f"| `{name}` | {' | '.join(cells)} |")
+        print(keys_markdown())
         return
     for name, tp, default, doc in rows:
         print(f"{name:32s} {tp:28s} default {default:14s} {doc}")
@@ -83,6 +98,9 @@ def main(argv=None) -> int:
         print(USAGE)
         return 0 if argv else 2
     if argv[0] == "keys":
+        if "--update" in argv:
+            update_docs(argv[argv.index("--update") + 1])
+            return 0
         print_keys(markdown="--markdown" in argv)
         return 0
     if argv[0] == "schemes":

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .loads import LoadFunction, load_function
-from .scene import GROUND, Scene
+from .scene import Scene
 
 
 @dataclass(frozen=True)
@@ -96,16 +96,13 @@ def spring_triplets(li, lj, k):
 
 def build(scene: Scene) -> Model:
     """Arrays of the scene's network model."""
-    net = scene.model
-    n, dof = net.n_nodes, 1
-    si = np.array([s.i for s in net.springs], dtype=np.int64)
-    sj = np.array([s.j for s in net.springs], dtype=np.int64)
-    sk = np.array([s.stiffness for s in net.springs], dtype=float)
+    net = scene.model.network
+    n, dof = net.mass.size, 1
     u0, v0 = np.zeros(n), np.zeros(n)
     for node, value in scene.initial.displacement.items():
         u0[node] = value
     for node, value in scene.initial.velocity.items():
         v0[node] = value
     loads = tuple(PointLoad(l.node * dof + l.component, load_function(l)) for l in scene.loads)
-    return Model(dof=dof, mass=np.asarray(net.masses, dtype=float), spring_i=si, spring_j=sj,
-                 spring_k=sk, loads=loads, u0=u0, v0=v0)
+    return Model(dof=dof, mass=net.mass, spring_i=net.spring_i, spring_j=net.spring_j,
+                 spring_k=net.stiffness, loads=loads, u0=u0, v0=v0)

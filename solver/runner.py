@@ -133,6 +133,17 @@ def build(scene, comm, say=_silent) -> Assembly:
     return Assembly(mdl, layouts, parts, exchange, scheme, freqs)
 
 
+def check_reference(scene):
+    """Refuse an unstable monolithic reference step before the coupled run starts."""
+    from .monolithic import reference_scene
+    rscene = reference_scene(scene)
+    mdl = model_mod.build(rscene)
+    layouts = overlap.derive(mdl.neighbours(), rscene.partitions, [0])
+    _, problems = check_stability(rscene, mdl, layouts, [0])
+    if problems:
+        raise StabilityError(f"reference.dt: {problems[0]}")
+
+
 def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output."""
     from mpi4py import MPI
@@ -146,6 +157,8 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     problem = comm.bcast(output.check_writable(scene.output_file) if rank == 0 else None)
     if problem:
         raise SceneError(problem)
+    if not isinstance(scene.reference, str):
+        check_reference(scene)
     asm = build(scene, comm, say)
     mdl, parts, scheme, freqs = asm.model, asm.parts, asm.scheme, asm.freqs
     n_sys, Dt = scene.n_system_steps, scene.system_dt
@@ -182,13 +195,13 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
              "exchange_wall_time": max(comm.allgather(x_wall)),
              "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
              "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
-             "t_end": done * Dt, "reference": scene.reference, "scene_yaml": scene_text}
+             "t_end": done * Dt, "reference": reference_label(scene), "scene_yaml": scene_text}
     for name, pa in part_attrs.items():
         attrs[f"steps_{name}"] = pa["steps"]
         attrs[f"wall_time_{name}"] = pa["wall_time"]
     result = RunResult(attrs, part_attrs, histories, guard.arrays())
-    if scene.reference == "modal" and not failure and histories:
-        add_modal_reference(result, mdl, scene)
+    if scene.reference != "none" and not failure and histories:
+        add_reference(result, mdl, scene, comm, say)
     asm.destroy()
     if rank == 0:
         output.write(scene.output_file, result)
@@ -224,6 +237,13 @@ def step_loop(scene, scheme, probes, guard, say):
     return failure, k, clock() - t_loop
 
 
+def reference_label(scene) -> str:
+    ref = scene.reference
+    if isinstance(ref, str):
+        return ref
+    return f"monolithic {ref.integrator}, dt {ref.dt:g} s"
+
+
 def relative_errors(x, ref):
     """(max |x - ref| / max |ref|, ||x - ref||_2 / ||ref||_2)."""
     err = np.asarray(x) - np.asarray(ref)
@@ -233,13 +253,23 @@ def relative_errors(x, ref):
             float(np.linalg.norm(err) / scale_rms) if scale_rms else float(np.linalg.norm(err)))
 
 
-def add_modal_reference(result, mdl, scene):
+def add_reference(result, mdl, scene, comm, say):
+    """Reference histories at the probe times (computed on rank 0) and the errors."""
+    from . import monolithic
+    refs = None
+    if comm.rank == 0:
+        t_axis = next(iter(result.probes.values()))["t"]
+        if scene.reference == "modal":
+            dofs = [p.node * mdl.dof + p.component for p in scene.probes]
+            u_ref, _ = reference.modal(mdl, dofs, t_axis)
+            refs = {p.name: u_ref[:, i] for i, p in enumerate(scene.probes)}
+        else:
+            refs = monolithic.history(scene, t_axis, say)
+    refs = comm.bcast(refs)
     for probe in scene.probes:
         pr = result.probes[probe.name]
-        dof = probe.node * mdl.dof + probe.component
-        u_ref, _ = reference.modal(mdl, [dof], pr["t"])
-        pr["reference_displacement"] = u_ref[:, 0]
-        mx, rms = relative_errors(pr["displacement"], u_ref[:, 0])
+        pr["reference_displacement"] = refs[probe.name]
+        mx, rms = relative_errors(pr["displacement"], refs[probe.name])
         pr["attrs"].update(max_rel_error=mx, rms_rel_error=rms)
 
 

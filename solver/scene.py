@@ -10,11 +10,14 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Literal
 
+import numpy as np
 import yaml
 
+from . import generators
 from .errors import SceneError
 from .schema import convert, fail, key, parse
 
@@ -63,19 +66,126 @@ class Time:
 
 
 @dataclass(frozen=True)
+class ChainGenerator:
+    name: Literal["chain"] = key("generator name")
+    n: int = key("number of masses", positive=True)
+    mass: float = key("mass of every node [kg]", positive=True)
+    stiffness: float = key("stiffness of every spring [N/m]", positive=True)
+    left: Literal["fixed", "free"] = key("left end tied to the ground or free", "fixed")
+    right: Literal["fixed", "free"] = key("right end tied to the ground or free", "free")
+
+    def build(self):
+        return generators.chain(self.n, self.mass, self.stiffness, self.left, self.right)
+
+
+@dataclass(frozen=True)
+class MetamaterialGenerator:
+    name: Literal["metamaterial"] = key("generator name")
+    M: int = key("shells before the resonator band", nonnegative=True)
+    N: int = key("shells carrying a resonator", nonnegative=True)
+    Q: int = key("shells after the resonator band", nonnegative=True)
+    shell_mass: float = key("m_s [kg]", positive=True)
+    resonator_mass: float = key("m_v [kg]", positive=True)
+    k_n: float = key("shell-shell spring and right-end ground spring [N/m]", positive=True)
+    k_s: float = key("shell-resonator spring [N/m]", positive=True)
+    resonators: bool = key("false: the plain chain of shells (seed 000 Fig. 8)", True)
+
+    def build(self):
+        return generators.metamaterial(self.M, self.N, self.Q, self.shell_mass,
+                                       self.resonator_mass, self.k_n, self.k_s, self.resonators)
+
+    def validate(self, path):
+        if self.M + self.N + self.Q < 1:
+            fail(path, "M + N + Q must be at least 1")
+
+
+GENERATORS = {"chain": ChainGenerator, "metamaterial": MetamaterialGenerator}
+
+
+def _generator(value, path):
+    if not isinstance(value, dict):
+        fail(path, f"expected a mapping with a name ({', '.join(GENERATORS)}), got {value!r}")
+    name = value.get("name")
+    if name not in GENERATORS:
+        fail(f"{path}.name", f"{name!r} is not one of {', '.join(GENERATORS)}")
+    return parse(GENERATORS[name], value, path)
+
+
+@dataclass(frozen=True)
 class NetworkModel:
-    """Lumped masses joined by linear springs, one DOF per node."""
+    """Lumped masses joined by linear springs, one DOF per node: given as
+    masses + springs, a generator, or a file."""
 
     kind: Literal["network"] = key("model kind")
-    masses: tuple[float, ...] = key("mass of each node [kg]; the node ids are the list positions",
-                                    positive=True)
-    springs: tuple[Spring, ...] = key(
-        "springs as [node_i, node_j, stiffness N/m]; 'ground' is a fixed end",
+    masses: tuple[float, ...] | None = key(
+        "mass of each node [kg]; the node ids are the list positions", None, positive=True)
+    springs: tuple[Spring, ...] | None = key(
+        "springs as [node_i, node_j, stiffness N/m]; 'ground' is a fixed end", None,
         parse=_springs, choices_doc="list of [node|ground, node|ground, float]")
+    generator: ChainGenerator | MetamaterialGenerator | None = key(
+        "a named generator with its parameters (instead of masses and springs)", None,
+        parse=_generator, choices_doc="mapping with name: chain | metamaterial",
+        variants=(ChainGenerator, MetamaterialGenerator))
+    file: str | None = key("NPZ or HDF5 file with arrays mass, spring_i, spring_j (-1 = ground), "
+                           "stiffness; path relative to the working directory", None)
+
+    def validate(self, path):
+        if (self.masses is None) != (self.springs is None):
+            fail(f"{path}.{'springs' if self.springs is None else 'masses'}",
+                 "masses and springs are given together")
+        given = [k for k in ("masses", "generator", "file") if getattr(self, k) is not None]
+        if len(given) != 1:
+            fail(path, "give exactly one of masses + springs, generator, file "
+                 f"({', '.join(given) or 'none'} given)")
+        if self.file is not None and not Path(self.file).is_file():
+            fail(f"{path}.file", f"{self.file}: file not found")
+        where = {"masses": (f"{path}.masses", f"{path}.springs"),
+                 "generator": (f"{path}.generator",) * 2,
+                 "file": (f"{path}.file {self.file}: mass", f"{path}.file {self.file}: spring")}
+        try:
+            self.network.validate(*where[given[0]])
+        except (ValueError, OSError, KeyError) as e:
+            fail("", str(e))
+
+    @cached_property
+    def network(self) -> generators.Network:
+        if self.generator is not None:
+            return self.generator.build()
+        if self.file is not None:
+            return generators.from_file(self.file)
+        return generators.Network(
+            mass=np.asarray(self.masses, dtype=float),
+            spring_i=np.array([sp.i for sp in self.springs], dtype=np.int64),
+            spring_j=np.array([sp.j for sp in self.springs], dtype=np.int64),
+            stiffness=np.array([sp.stiffness for sp in self.springs], dtype=float),
+            groups={"nodes": (0, len(self.masses))})
 
     @property
     def n_nodes(self) -> int:
-        return len(self.masses)
+        return int(self.network.mass.size)
+
+
+def _node_set(value, path):
+    """Node ids as a list of ids and {range: [first, end)} items, or one range."""
+    items = [value] if isinstance(value, dict) else value
+    if not isinstance(items, list):
+        fail(path, f"expected a list of node ids or ranges, got {value!r}")
+    out = []
+    for n, item in enumerate(items):
+        p = f"{path}[{n}]"
+        if isinstance(item, dict):
+            if set(item) != {"range"}:
+                fail(p, f"a node range is {{range: [first, end]}}, got {item!r}")
+            r = item["range"]
+            if (not isinstance(r, list) or len(r) != 2 or
+                    any(isinstance(x, bool) or not isinstance(x, int) for x in r) or not 0 <= r[0] < r[1]):
+                fail(f"{p}.range", f"expected [first, end] with 0 <= first < end, got {r!r}")
+            out.extend(range(r[0], r[1]))
+        elif isinstance(item, int) and not isinstance(item, bool) and item >= 0:
+            out.append(item)
+        else:
+            fail(p, f"expected a node id or {{range: [first, end]}}, got {item!r}")
+    return tuple(out)
 
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
@@ -85,7 +195,9 @@ NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
 class Partition:
     name: str = key("partition name; also the PETSc options prefix (name_)")
     method: Literal["fem", "dem"] = key("fem: sparse matrix partition; dem: particles and bonds")
-    nodes: tuple[int, ...] = key("node ids owned by this partition", nonnegative=True)
+    nodes: tuple[int, ...] = key("node ids owned by this partition: ids and {range: [first, end]} "
+                                 "items (end excluded)", parse=_node_set,
+                                 choices_doc="list of int | {range: [int, int]}")
     integrator: Literal["explicit", "verlet"] = key(
         "explicit: Newmark predictor-corrector, explicit form (fem); verlet: velocity Verlet (dem)")
     ratio: int = key("this partition steps ratio*time.dt", positive=True)
@@ -160,6 +272,17 @@ class Probe:
 
 
 @dataclass(frozen=True)
+class MonolithicReference:
+    kind: Literal["monolithic"] = key("the same model as one partition with a fine step")
+    dt: float = key("step of the reference run [s]; must divide the system step", positive=True)
+    integrator: Literal["explicit", "verlet"] = key(
+        "explicit: Newmark explicit (fem partition); verlet: velocity Verlet (dem partition)",
+        "explicit")
+    cache: bool = key("keep the reference history beside the output (.reference-cache/) and "
+                      "reuse it when model, loads, probes and step are unchanged", True)
+
+
+@dataclass(frozen=True)
 class Output:
     file: str = key("HDF5 output path, relative to the working directory")
     energy_every: int | None = key(
@@ -187,8 +310,10 @@ class Scene:
     loads: tuple[Load, ...] = key("external forces", ())
     initial: Initial = key("initial state (zero where not given)", Initial())
     probes: tuple[Probe, ...] = key("recorded node histories", ())
-    reference: Literal["none", "modal"] = key(
-        "modal: exact solution of the network at the probe times", "none")
+    reference: Literal["none", "modal"] | MonolithicReference = key(
+        "none; modal: exact solution of the network at the probe times; or a monolithic run "
+        "{kind: monolithic, dt, integrator}", "none",
+        choices_doc="none | modal | mapping")
     output: Output | None = key("output file; default results/<name>.h5", None)
     guard: Guard = key("stability and blow-up guards", Guard())
 
@@ -211,10 +336,6 @@ class Scene:
 
     def validate(self, path):
         n = self.model.n_nodes
-        for s, sp in enumerate(self.model.springs):
-            for end in (sp.i, sp.j):
-                if end >= n:
-                    fail(f"model.springs[{s}]", f"node {end} out of range (model has {n} nodes)")
         if not self.partitions:
             fail("partitions", "at least one partition is needed")
         owner: dict[int, str] = {}
@@ -250,9 +371,11 @@ class Scene:
             if probe.name in seen:
                 fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
             seen.add(probe.name)
-        if self.reference == "modal" and any(l.kind not in ("sine", "half_sine", "tabulated")
-                                              for l in self.loads):
-            fail("reference", "modal reference supports sine, half_sine and tabulated loads")
+        if isinstance(self.reference, MonolithicReference):
+            ratio = self.system_dt / self.reference.dt
+            if abs(ratio - round(ratio)) > 1e-6 * ratio:
+                fail("reference.dt", f"{self.reference.dt} does not divide the system step "
+                     f"{self.system_dt}")
 
     def _check_dof(self, path, node, component):
         if node < 0 or node >= self.model.n_nodes:

@@ -22,9 +22,11 @@ MISSING = dataclasses.MISSING
 
 
 def key(doc: str, default: Any = MISSING, *, positive: bool = False,
-        nonnegative: bool = False, parse=None, choices_doc: str | None = None):
-    """A documented scene key; ``parse(value, path)`` overrides type conversion."""
-    meta = {"doc": doc, "positive": positive, "nonnegative": nonnegative, "parse": parse}
+        nonnegative: bool = False, parse=None, choices_doc: str | None = None, variants=()):
+    """A documented scene key; ``parse(value, path)`` overrides type conversion;
+    ``variants`` lists the sections a ``parse`` hook dispatches to (for docs)."""
+    meta = {"doc": doc, "positive": positive, "nonnegative": nonnegative, "parse": parse,
+            "variants": variants}
     if choices_doc:
         meta["type_doc"] = choices_doc
     if default is MISSING:
@@ -93,8 +95,10 @@ def convert(tp, value, path: str, meta=None):
         if value is None and type(None) in args:
             return None
         inner = [a for a in args if a is not type(None)]
-        if len(inner) == 1:
-            return convert(inner[0], value, path, {**meta, "parse": None})
+        sections = [a for a in inner if dataclasses.is_dataclass(a)]
+        if len(inner) == 1 or (isinstance(value, dict) and len(sections) == 1):
+            return convert(sections[0] if isinstance(value, dict) and sections else inner[0],
+                           value, path, {**meta, "parse": None})
         for a in inner:
             try:
                 return convert(a, value, path, {**meta, "parse": None})
@@ -184,6 +188,10 @@ def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
         else:
             default = "required"
         rows.append((name, tdoc, default, f.metadata.get("doc", "")))
+        for variant in f.metadata.get("variants", ()):
+            label = typing.get_args(_hints(variant)["name"])[0]
+            rows += [(n, t, d, f"({label}) {doc}") for n, t, d, doc in describe(variant, f"{name}.")
+                     if n != f"{name}.name"]
         if f.metadata.get("parse") is not None:
             continue
         inner = tp

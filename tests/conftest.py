@@ -22,7 +22,8 @@ def mpiexec() -> str:
 
 
 def raw_scene(name: str) -> dict:
-    return yaml.safe_load((CONFIGS / f"{name}.yaml").read_text())
+    from solver.scene import yaml_load
+    return yaml_load((CONFIGS / f"{name}.yaml").read_text())
 
 
 def write_scene(path: Path, raw: dict) -> Path:

@@ -1,0 +1,78 @@
+"""Monolithic reference: the same model as one partition with a fine step.
+
+``reference: {kind: monolithic, dt, integrator}`` runs the whole model as a
+single partition (fem + explicit Newmark, or dem + velocity Verlet) with step
+``dt`` on one rank, and samples its probes at the coupled run's system-step
+times.  The history is cached beside the output (``.reference-cache/``) under a
+hash of everything it depends on, so sweeps compute it once.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .scene import Coupling, Guard, Partition, Time
+
+
+def reference_scene(scene):
+    """The single-partition scene the reference runs."""
+    ref = scene.reference
+    method = "dem" if ref.integrator == "verlet" else "fem"
+    whole = Partition(name="reference", method=method, nodes=tuple(range(scene.model.n_nodes)),
+                      integrator=ref.integrator, ratio=1)
+    return dataclasses.replace(scene, name=f"{scene.name}_reference",
+                               time=Time(end=scene.time.end, dt=ref.dt), partitions=(whole,),
+                               coupling=Coupling(), reference="none", output=None,
+                               guard=Guard(stable_step=True))
+
+
+def _key(scene) -> str:
+    net = scene.model.network
+    h = hashlib.sha256()
+    for arr in (net.mass, net.spring_i, net.spring_j, net.stiffness):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    h.update(json.dumps([repr(scene.loads), repr(scene.initial), repr(scene.probes),
+                         scene.reference.dt, scene.reference.integrator, scene.time.end,
+                         scene.system_dt]).encode())
+    return h.hexdigest()[:20]
+
+
+def history(scene, t_axis, log=None) -> dict:
+    """Probe displacement histories of the reference at ``t_axis``: name -> array."""
+    from mpi4py import MPI
+
+    from .monitor import Probes
+    from .overlap import owner_map
+    from .runner import build
+
+    ref = scene.reference
+    cache = Path(scene.output_file).parent / ".reference-cache" / f"{scene.name}-{_key(scene)}.npz"
+    if ref.cache and cache.is_file():
+        with np.load(cache) as f:
+            t, data = f["t"], {p.name: f[p.name] for p in scene.probes}
+    else:
+        rscene = reference_scene(scene)
+        n = int(round(scene.time.end / ref.dt + 1e-9))
+        if log:
+            log(f"[solver] reference: monolithic {ref.integrator} run, {n} steps of {ref.dt:.3g} s")
+        asm = build(rscene, MPI.COMM_SELF)
+        probes = Probes(rscene.probes, {0: asm.parts[0]}, owner_map(rscene.model.n_nodes,
+                                                                  rscene.partitions), n)
+        step = asm.scheme.step
+        for s in range(n):
+            step(s * ref.dt)
+            probes.record(s + 1)
+        t = np.arange(n + 1) * ref.dt
+        data = {name: h["displacement"] for name, h in probes.histories(t, n).items()}
+        asm.destroy()
+        if ref.cache:
+            cache.parent.mkdir(parents=True, exist_ok=True)
+            np.savez(cache, t=t, **data)
+    stride = int(round((t_axis[1] - t_axis[0]) / ref.dt)) if t_axis.size > 1 else 1
+    idx = np.arange(t_axis.size) * stride
+    assert idx[-1] < t.size and np.allclose(t[idx], t_axis, rtol=0, atol=1e-9 * max(t_axis[-1], 1))
+    return {name: values[idx] for name, values in data.items()}
