@@ -85,7 +85,7 @@ def print_schemes():
     from . import integrators
     from .scene import Coupling
     for cls in integrators.CATALOGUE:
-        print(f"integrator {cls.name}: {cls.__doc__.strip()}\n")
+        print(f"{cls.__name__}: {cls.__doc__.strip()}\n")
     print(f"coupling.scheme / coupling.external:")
     from .schema import describe
     for name, tp, default, doc in describe(Coupling):

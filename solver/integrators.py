@@ -1,9 +1,11 @@
 """Time integrators of a partition, each one step of ``m x'' = f_ext + f_int``.
 
 An integrator works on a partition's PETSc Vecs ``u, v, a`` (held DOFs) and
-work Vecs, and asks the partition for two things: ``residual(t, u, v)``
-(r = f(t) - K u - C v into ``p.r``) and ``accelerate()`` (a = M^-1 r, keeping external
-data as the partition's treatment requires).  Sub-cycling a partition inside a
+work Vecs, and asks the partition for: ``residual(t, u, v)`` (r = f(t) - K u
+- C v into ``p.r``), ``accelerate()`` (a from r: diagonal mass solve or KSP,
+keeping external data as the partition's treatment requires) and
+``corrected`` (the Vecs the corrector updates: all held rows, or the owned
+rows when external data are prescribed from outside).  Sub-cycling a partition inside a
 system step is then a loop of ``step`` calls.
 """
 from __future__ import annotations
@@ -12,34 +14,61 @@ from dataclasses import dataclass
 
 
 @dataclass(frozen=True)
-class NewmarkExplicit:
-    """Newmark predictor-corrector, explicit form (diagonal mass solve).
+class Newmark:
+    """Newmark predictor-corrector; explicit (diagonal mass solve) or implicit
+    (effective-matrix solve) form of the same code path.
 
     predictor  u~ = u + h v + h^2 (1/2 - beta) a ;  v~ = v + (1 - gamma) h a
-    solve      M a' = f(t+h) - K u~ - C v~
+    solve      explicit  M a' = f(t+h) - K u~ - C v~
+               implicit  (M + gamma h C + beta h^2 K) a' = f(t+h) - K u~ - C v~
     corrector  u' = u~ + beta h^2 a' ;  v' = v~ + gamma h a'
 
-    Second order for gamma = 1/2.  Stability: omega_max h < 2 for any beta
-    (the explicit form is only conditionally stable, whatever seed 000 says).
+    Second order for gamma = 1/2.  Stability: the explicit form needs
+    omega_max h < 2 for any beta; the implicit form is unconditionally stable
+    for 2 beta >= gamma >= 1/2, else omega_max h < 1/sqrt(gamma/2 - beta).
+    ``predict`` and ``finish`` are separate so that the staggered scheme can
+    set prescribed external accelerations in between.
     """
 
     beta: float = 0.25
     gamma: float = 0.5
-    name = "explicit"
+    implicit: bool = False
     work = ("ut", "vt")
 
-    def describe(self) -> str:
-        return f"Newmark explicit (beta={self.beta:g}, gamma={self.gamma:g}), stable for omega*h < 2"
+    @property
+    def name(self) -> str:
+        return "implicit" if self.implicit else "explicit"
 
-    def step(self, p, t1: float):
+    def critical_omega_h(self) -> float:
+        """Largest stable omega*h."""
+        if not self.implicit:
+            return 2.0
+        if 2 * self.beta >= self.gamma >= 0.5:
+            return float("inf")
+        return 1.0 / (self.gamma / 2 - self.beta) ** 0.5
+
+    def describe(self) -> str:
+        lim = self.critical_omega_h()
+        stab = "unconditionally stable" if lim == float("inf") else f"stable for omega*h < {lim:.3g}"
+        return f"Newmark {self.name} (beta={self.beta:g}, gamma={self.gamma:g}), {stab}"
+
+    def predict(self, p):
         h = p.dt
         p.ut.waxpy(h, p.v, p.u)
         p.ut.axpy(h * h * (0.5 - self.beta), p.a)
         p.vt.waxpy((1.0 - self.gamma) * h, p.a, p.v)
+
+    def finish(self, p, t1: float):
+        h = p.dt
         p.residual(t1, p.ut, p.vt)
         p.accelerate()
-        p.u.waxpy(self.beta * h * h, p.a, p.ut)
-        p.v.waxpy(self.gamma * h, p.a, p.vt)
+        u, v, a, ut, vt = p.corrected
+        u.waxpy(self.beta * h * h, a, ut)
+        v.waxpy(self.gamma * h, a, vt)
+
+    def step(self, p, t1: float):
+        self.predict(p)
+        self.finish(p, t1)
 
 
 @dataclass(frozen=True)
@@ -53,6 +82,9 @@ class VelocityVerlet:
 
     name = "verlet"
     work = ()
+
+    def critical_omega_h(self) -> float:
+        return 2.0
 
     def describe(self) -> str:
         return "velocity Verlet, stable for omega*h < 2"
@@ -69,11 +101,11 @@ class VelocityVerlet:
 
 def make(spec):
     """The integrator of a :class:`solver.scene.Partition`."""
-    if spec.integrator == "explicit":
-        return NewmarkExplicit(spec.beta, spec.gamma)
+    if spec.integrator in ("explicit", "implicit"):
+        return Newmark(spec.beta, spec.gamma, implicit=spec.integrator == "implicit")
     if spec.integrator == "verlet":
         return VelocityVerlet()
     raise ValueError(spec.integrator)
 
 
-CATALOGUE = (NewmarkExplicit, VelocityVerlet)
+CATALOGUE = (Newmark, VelocityVerlet)

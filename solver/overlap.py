@@ -87,9 +87,7 @@ def derive(neighbours: list[np.ndarray], partitions, n_layers) -> list[Layout]:
     return layouts
 
 
-def layer_counts(partitions, treatment: str) -> list[int]:
+def layer_counts(partitions, treatments) -> list[int]:
     """External layers per partition: one, or one per sub-step (``layers``)."""
     big = max(p.ratio for p in partitions)
-    if treatment == "layers":
-        return [big // p.ratio for p in partitions]
-    return [1 for _ in partitions]
+    return [big // p.ratio if t == "layers" else 1 for p, t in zip(partitions, treatments)]

@@ -12,7 +12,10 @@ External-data treatments (``coupling.external``):
            predictor from the last exchange) during the sub-steps;
   layers   one external layer per sub-step, integrated with the partition's
            scheme (the outer layers degrade but never reach the boundary);
-  literal  one layer integrated with the partition's own scheme (seed 000).
+  literal  one layer integrated with the partition's own scheme (seed 000);
+  prescribed  (set by the staggered scheme for its implicit partition) the
+           external (u, v, a) at the new time come from the other partition:
+           only owned rows are solved and corrected.
 
 Subclasses (:mod:`solver.fem`, :mod:`solver.dem`) build the stiffness
 operator ``Kneg = -K`` over the held DOFs.
@@ -49,17 +52,25 @@ class Partition:
         self.u, self.v, self.a = (vec_on(x, comm) for x in (self.U, self.V, self.A))
         self.R = np.zeros(n)
         self.r = vec_on(self.R, comm)
-        for name in self.integrator.work:
-            setattr(self, name, vec_on(np.zeros(n), comm))
+        self._work = {name: np.zeros(n) for name in self.integrator.work}
+        for name, arr in self._work.items():
+            setattr(self, name, vec_on(arr, comm))
         self.mass = np.repeat(model.mass[held], dof)
         self._minv = 1.0 / self.mass
         self.minv = vec_on(self._minv, comm)
-        # taylor: the acceleration solve covers the owned DOFs only, so external
-        # accelerations keep their exchanged values through the sub-steps
-        self.frozen = treatment == "taylor" and n > self.n_own
+        # taylor / prescribed: the acceleration solve covers the owned DOFs only,
+        # so external accelerations keep their exchanged values
+        self.frozen = treatment in ("taylor", "prescribed") and n > self.n_own
         m = self.n_own if self.frozen else n
         self._solve = (vec_on(self.A[:m], comm), vec_on(self.R[:m], comm),
                        vec_on(self._minv[:m], comm))
+        self._views = list(self._solve)
+        self.corrected = (self.u, self.v, self.a, *(getattr(self, w) for w in self.integrator.work))
+        if treatment == "prescribed" and self.integrator.work:
+            owned = [vec_on(x[:self.n_own], comm) for x in
+                     (self.U, self.V, self.A, self._work["ut"], self._work["vt"])]
+            self.corrected = tuple(owned)
+            self._views += owned
         self._setup_loads(model, layout)
         for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
             getattr(self, name).setOptionsPrefix(self.prefix)
@@ -85,7 +96,8 @@ class Partition:
             self._loads.append((i, load.function.at))
         self.f_last = [0.0] * len(self._loads)
         self.work = 0.0
-        self._power = 0.0
+        self._f_prev = [0.0] * len(self._owned_loads)
+        self._u_prev = [0.0] * len(self._owned_loads)
 
     def describe(self) -> str:
         lay = self.layout
@@ -118,24 +130,33 @@ class Partition:
         self.V[:] = model.v0[self.held_dofs]
         self.residual(0.0, self.u, self.v)
         self.a.pointwiseMult(self.r, self.minv)
-        self._power = self._owned_power()
+        self._remember_loads()
 
-    def _owned_power(self) -> float:
-        V, f = self.V, self.f_last
-        return sum(f[j] * V[i] for j, i in self._owned_loads)
+    def _remember_loads(self):
+        for k, (j, i) in enumerate(self._owned_loads):
+            self._f_prev[k] = self.f_last[j]
+            self._u_prev[k] = self.U[i]
+
+    def after_step(self):
+        """Bookkeeping after every completed step: step count and external work
+        W += 1/2 (f_n + f_n+1) . (u_n+1 - u_n) over the owned loaded DOFs (the
+        work the trapezoidal rule balances exactly)."""
+        self.steps += 1
+        if self._owned_loads:
+            U, f = self.U, self.f_last
+            w = 0.0
+            for k, (j, i) in enumerate(self._owned_loads):
+                w += 0.5 * (self._f_prev[k] + f[j]) * (U[i] - self._u_prev[k])
+            self.work += w
+            self._remember_loads()
 
     def advance(self, t0: float):
         """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
         step = self.integrator.step
         h = self.dt
-        track = bool(self._owned_loads)
         for k in range(1, self.n_sub + 1):
             step(self, t0 + k * h)
-            if track:
-                p = self._owned_power()
-                self.work += 0.5 * h * (self._power + p)
-                self._power = p
-        self.steps += self.n_sub
+            self.after_step()
 
     def energies(self):
         """(kinetic, strain, external work) of the owned DOFs.
@@ -156,7 +177,7 @@ class Partition:
     def destroy(self):
         for name in ("u", "v", "a", "r", "minv", "Kneg", *self.integrator.work):
             getattr(self, name).destroy()
-        for vec in self._solve:
+        for vec in self._views:
             vec.destroy()
 
 

@@ -13,11 +13,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import model as model_mod
-from . import overlap, reference, stability
+from . import integrators, overlap, reference, stability
 from .coupling import SCHEMES
 from .dem import DemPartition
 from .errors import LaunchError, RunFailed, SceneError, StabilityError
-from .exchange import Exchange
 from .fem import FemPartition
 from .monitor import EnergyGuard, Probes
 from .petscutil import init
@@ -50,31 +49,31 @@ def check_stability(scene, mdl, layouts, ids):
         fr = stability.omega_max(rows, cols, vals, np.repeat(mdl.mass[lay.held], mdl.dof))
         dt = spec.ratio * scene.time.dt
         freqs[spec.name] = fr
-        if fr.omega_max * dt >= 2.0:
+        limit = integrators.make(spec).critical_omega_h()
+        if fr.omega_max * dt >= limit:
             problems.append(
                 f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
-                f"{scene.time.dt:.4g} s) is unstable, critical step {fr.critical_step():.4g} s "
+                f"{scene.time.dt:.4g} s) is unstable, critical step {limit / fr.omega_max:.4g} s "
                 f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}); reduce time.dt or the ratio")
     return freqs, problems
 
 
 @dataclass
 class Assembly:
-    """Everything a run steps: the model, all layouts, this rank's partitions,
-    the exchange (None with a single partition) and the coupling scheme."""
+    """Everything a run steps: the model, all layouts, this rank's partitions
+    and the coupling scheme (which owns the exchanges)."""
 
     model: object
     layouts: list
     parts: list
-    exchange: object
     scheme: object
     freqs: dict
 
     def destroy(self):
         for part in self.parts:
             part.destroy()
-        if self.exchange:
-            self.exchange.destroy()
+        for exchange in self.scheme.exchanges:
+            exchange.destroy()
 
 
 def build(scene, comm, say=_silent) -> Assembly:
@@ -89,14 +88,15 @@ def build(scene, comm, say=_silent) -> Assembly:
                           f"{n_part} ranks, not {size}")
     rank_of = [0] * n_part if size == 1 else list(range(n_part))
     local_ids = [p for p in range(n_part) if rank_of[p] == rank]
-    treatment = scene.coupling.external
+    scheme_cls = SCHEMES[scene.coupling.scheme]
+    treatments = scheme_cls.treatments(scene)
     R = scene.system_ratio
     n_sys = scene.n_system_steps
     Dt = scene.system_dt
 
     mdl = model_mod.build(scene)
     layouts = overlap.derive(mdl.neighbours(), scene.partitions,
-                             overlap.layer_counts(scene.partitions, treatment))
+                             overlap.layer_counts(scene.partitions, treatments))
     freqs, problems = check_stability(scene, mdl, layouts, local_ids)
     problems = sum(comm.allgather(problems), [])
     if problems and scene.guard.stable_step:
@@ -107,30 +107,32 @@ def build(scene, comm, say=_silent) -> Assembly:
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     parts = [PARTITION_TYPES[scene.partitions[p].method](
-        scene.partitions[p], layouts[p], mdl, MPI.COMM_SELF, treatment, scene.time.dt, R)
+        scene.partitions[p], layouts[p], mdl, MPI.COMM_SELF, treatments[p], scene.time.dt, R)
         for p in local_ids]
     lines = []
     for part in parts:
         fr = freqs[part.name]
         lines.append(f"[solver]   {part.describe()}")
+        crit = fr.critical_step(part.integrator.critical_omega_h())
         lines.append(f"[solver]   {part.name}: built {'; '.join(part.built)}; omega_max "
-                     f"{fr.omega_max:.4g} rad/s ({fr.method}), critical step {fr.critical_step():.4g} s")
+                     f"{fr.omega_max:.4g} rad/s ({fr.method}), critical step {crit:.4g} s")
     for chunk in comm.gather(lines, root=0) or []:
         for line in chunk:
             say(line)
 
-    need_exchange = any(lay.layers for lay in layouts)
-    exchange = Exchange(comm, layouts, parts, mdl.dof) if need_exchange else None
-    scheme = SCHEMES[scene.coupling.scheme](parts, exchange)
-    if exchange:
-        say(f"[solver]   exchange: VecScatter of (u, v, a) once per system step, {exchange.values} "
-            f"values on this rank; external-data treatment '{treatment}'; {scheme.describe()}")
-    not_built = ["KSP (all partitions explicit)", "neighbour search (no contacts)"]
-    if not exchange:
+    scheme = scheme_cls(comm, layouts, parts, mdl.dof, scene)
+    if scheme.exchanges:
+        say(f"[solver]   {scheme.describe()}; {len(scheme.exchanges)} VecScatter exchange(s) of "
+            f"(u, v, a) per system step; external-data treatment: "
+            + ", ".join(f"{p.name} {t}" for p, t in zip(scene.partitions, treatments)))
+    not_built = ["neighbour search (no contacts)"]
+    if not any(p.integrator == "implicit" for p in scene.partitions):
+        not_built.insert(0, "KSP (all partitions explicit)")
+    if not scheme.exchanges:
         not_built.insert(0, "exchange (single partition)")
     say(f"[solver]   not built: {', '.join(not_built)}")
     scheme.initialise(mdl)
-    return Assembly(mdl, layouts, parts, exchange, scheme, freqs)
+    return Assembly(mdl, layouts, parts, scheme, freqs)
 
 
 def check_reference(scene):
@@ -172,14 +174,14 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     failure, done, loop_wall = step_loop(scene, scheme, probes, guard, say if rank == 0 else None)
 
     # ---- gather results on every rank (small: probes and attributes)
-    x_wall = scheme.exchange_wall
+    x_wall = scheme.clocks.exchange_wall
     local_parts = {part.name: {
         "method": part.method, "integrator": part.integrator.describe(),
         "ratio": part.spec.ratio, "dt": part.dt, "steps": part.steps, "wall_time": part.wall,
         "n_owned": part.layout.n_owned, "n_external": int(part.layout.external.size),
         "layers": len(part.layout.layers), "boundary": part.layout.boundary,
         "omega_max": freqs[part.name].omega_max,
-        "critical_step": freqs[part.name].critical_step(),
+        "critical_step": freqs[part.name].critical_step(part.integrator.critical_omega_h()),
         "exchange_wall_time": x_wall} for part in parts}
     t_axis = np.arange(n_sys + 1) * Dt
     gathered, part_attrs = {}, {}

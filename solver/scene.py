@@ -198,13 +198,14 @@ class Partition:
     nodes: tuple[int, ...] = key("node ids owned by this partition: ids and {range: [first, end]} "
                                  "items (end excluded)", parse=_node_set,
                                  choices_doc="list of int | {range: [int, int]}")
-    integrator: Literal["explicit", "verlet"] = key(
-        "explicit: Newmark predictor-corrector, explicit form (fem); verlet: velocity Verlet (dem)")
+    integrator: Literal["explicit", "implicit", "verlet"] = key(
+        "explicit / implicit: Newmark predictor-corrector, explicit or implicit form (fem); "
+        "verlet: velocity Verlet (dem)")
     ratio: int = key("this partition steps ratio*time.dt", positive=True)
-    beta: float = key("Newmark beta (explicit integrator)", 0.25, nonnegative=True)
-    gamma: float = key("Newmark gamma (explicit integrator)", 0.5, positive=True)
+    beta: float = key("Newmark beta (explicit and implicit integrators)", 0.25, nonnegative=True)
+    gamma: float = key("Newmark gamma (explicit and implicit integrators)", 0.5, positive=True)
 
-    SUPPORTED = {("fem", "explicit"), ("dem", "verlet")}
+    SUPPORTED = {("fem", "explicit"), ("fem", "implicit"), ("dem", "verlet")}
 
     def validate(self, path):
         if not NAME.match(self.name):
@@ -218,9 +219,11 @@ class Partition:
 
 @dataclass(frozen=True)
 class Coupling:
-    scheme: Literal["overlap"] = key(
+    scheme: Literal["overlap", "staggered"] = key(
         "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
-        "state and exchange once per system step", "overlap")
+        "state and exchange once per system step; staggered: seed 002, the explicit partition "
+        "sub-cycles, then the implicit partition solves with its accelerations prescribed",
+        "overlap")
     external: Literal["taylor", "layers", "literal"] = key(
         "external-data treatment: taylor (one layer following the Taylor predictor from the last "
         "exchange, default), layers (one layer per sub-step, integrated), literal (seed 000: one "
@@ -354,6 +357,8 @@ class Scene:
         orphans = sorted(set(range(n)) - set(owner))
         if orphans:
             fail("partitions", f"nodes {orphans[:10]} are owned by no partition")
+        if self.coupling.scheme == "staggered":
+            self._check_staggered()
         big = self.system_ratio
         for p, part in enumerate(self.partitions):
             if big % part.ratio:
@@ -376,6 +381,16 @@ class Scene:
             if abs(ratio - round(ratio)) > 1e-6 * ratio:
                 fail("reference.dt", f"{self.reference.dt} does not divide the system step "
                      f"{self.system_dt}")
+
+    def _check_staggered(self):
+        parts = self.partitions
+        implicit = [p for p in parts if p.integrator == "implicit"]
+        if len(parts) != 2 or len(implicit) != 1:
+            fail("coupling.scheme", "staggered couples exactly two partitions, one with "
+                 f"integrator implicit ({len(parts)} partitions, {len(implicit)} implicit given)")
+        if implicit[0].ratio != self.system_ratio:
+            fail("coupling.scheme", f"staggered: the implicit partition '{implicit[0].name}' takes "
+                 "the large step, so its ratio must be the largest")
 
     def _check_dof(self, path, node, component):
         if node < 0 or node >= self.model.n_nodes:

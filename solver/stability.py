@@ -20,8 +20,9 @@ class Frequency:
     omega_max: float     # rad/s
     method: str          # "exact" or "Gershgorin bound"
 
-    def critical_step(self) -> float:
-        return 2.0 / self.omega_max if self.omega_max > 0 else float("inf")
+    def critical_step(self, omega_h: float = 2.0) -> float:
+        """Largest stable step for an integrator whose limit is ``omega_h``."""
+        return omega_h / self.omega_max if self.omega_max > 0 else float("inf")
 
 
 def omega_max(rows, cols, vals, mass: np.ndarray) -> Frequency:

@@ -9,7 +9,7 @@ def layouts(treatment, fem_ratio=5):
     scene = load("configs/six_dof.yaml", [f"partitions.fem.ratio={fem_ratio}"])
     m = model.build(scene)
     return overlap.derive(m.neighbours(), scene.partitions,
-                          overlap.layer_counts(scene.partitions, treatment)), m
+                          overlap.layer_counts(scene.partitions, [treatment] * 2)), m
 
 
 def test_six_dof_overlap_is_m3_m4_and_k4():

@@ -49,7 +49,7 @@ def test_integrated_external_data_use_partial_forces(treatment, layers):
     # partition's own springs, so they moved away from the exchanged values
     assert not np.array_equal(dem.A[n:], a_before)
     # after the exchange every external copy equals its owner's value again
-    asm.exchange()
+    asm.scheme.exchange()
     position = {node: i for i, node in enumerate(fem.layout.owned.tolist())}
     rows = [position[node] for node in dem.layout.external.tolist()]
     assert np.array_equal(dem.state[:, n:], fem.state[:, rows])       # u, v and a

@@ -36,3 +36,19 @@ def test_one_and_two_ranks_agree(treatment, eta, shared_tmp):
     assert np.allclose(serial.energy["total"], parallel.energy["total"], rtol=1e-12, atol=0)
     assert parallel.partitions["fem"]["steps"] == serial.partitions["fem"]["steps"]
     world.barrier()
+
+
+def test_staggered_one_and_two_ranks_agree(shared_tmp):
+    world = MPI.COMM_WORLD
+    raw = raw_scene("metamaterial_implicit")
+    raw["time"]["end"] = 0.01
+    raw["reference"] = "none"
+    raw["probes"] = [{"name": "p550", "node": 305}]     # DEM side, reached within 10 ms
+    raw["name"] = f"stag_serial_{world.rank}"
+    serial = run_scene(raw, shared_tmp, comm=MPI.COMM_SELF)
+    raw["name"] = "stag_parallel"
+    parallel = run_scene(raw, shared_tmp, comm=world)
+    a, b = serial.probes["p550"], parallel.probes["p550"]
+    assert np.abs(a["displacement"]).max() > 0
+    assert np.abs(a["displacement"] - b["displacement"]).max() <= 1e-12 * np.abs(a["displacement"]).max()
+    world.barrier()
