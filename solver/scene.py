@@ -219,10 +219,11 @@ class Partition:
 
 @dataclass(frozen=True)
 class Coupling:
-    scheme: Literal["overlap", "staggered"] = key(
+    scheme: Literal["overlap", "staggered", "gc"] = key(
         "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
         "state and exchange once per system step; staggered: seed 002, the explicit partition "
-        "sub-cycles, then the implicit partition solves with its accelerations prescribed",
+        "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
+        "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank)",
         "overlap")
     external: Literal["taylor", "layers", "literal"] = key(
         "external-data treatment: taylor (one layer following the Taylor predictor from the last "
@@ -357,7 +358,7 @@ class Scene:
         orphans = sorted(set(range(n)) - set(owner))
         if orphans:
             fail("partitions", f"nodes {orphans[:10]} are owned by no partition")
-        if self.coupling.scheme == "staggered":
+        if self.coupling.scheme in ("staggered", "gc"):
             self._check_staggered()
         big = self.system_ratio
         for p, part in enumerate(self.partitions):
@@ -383,14 +384,18 @@ class Scene:
                      f"{self.system_dt}")
 
     def _check_staggered(self):
-        parts = self.partitions
+        parts, scheme = self.partitions, self.coupling.scheme
         implicit = [p for p in parts if p.integrator == "implicit"]
         if len(parts) != 2 or len(implicit) != 1:
-            fail("coupling.scheme", "staggered couples exactly two partitions, one with "
+            fail("coupling.scheme", f"{scheme} couples exactly two partitions, one with "
                  f"integrator implicit ({len(parts)} partitions, {len(implicit)} implicit given)")
         if implicit[0].ratio != self.system_ratio:
-            fail("coupling.scheme", f"staggered: the implicit partition '{implicit[0].name}' takes "
+            fail("coupling.scheme", f"{scheme}: the implicit partition '{implicit[0].name}' takes "
                  "the large step, so its ratio must be the largest")
+        other = next(p for p in parts if p.integrator != "implicit")
+        if scheme == "gc" and (other.method, other.integrator) != ("fem", "explicit"):
+            fail("coupling.scheme", f"gc: the fine partition '{other.name}' must be fem with "
+                 "integrator explicit")
 
     def _check_dof(self, path, node, component):
         if node < 0 or node >= self.model.n_nodes:
