@@ -17,34 +17,44 @@ not overlap in time.
 """
 from __future__ import annotations
 
-import time
+from time import perf_counter as _clock
 
 from .exchange import Exchange
-from .petscutil import Stage
+from .petscutil import Stage, init
 
 
 class _Clocks:
-    """Wall time and PETSc logging stages of partitions and exchanges."""
+    """Wall time of partitions and exchanges, and PETSc logging stages (one per
+    partition, one for the exchange) when PETSc logging is on (-log_view)."""
 
     def __init__(self, parts):
         self._stages = {p.name: Stage(p.name) for p in parts}
         self._stage_x = Stage("exchange")
         self.exchange_wall = 0.0
+        self.logging = init().Log.isActive()
+        if not self.logging:
+            self.part, self.exchange = self._part, self._exchange
 
     def part(self, part, fn, *args):
         stage = self._stages[part.name]
         stage.push()
-        c0 = time.perf_counter()
-        fn(*args)
-        part.wall += time.perf_counter() - c0
+        self._part(part, fn, *args)
         stage.pop()
 
     def exchange(self, exchange):
         self._stage_x.push()
-        c0 = time.perf_counter()
-        exchange()
-        self.exchange_wall += time.perf_counter() - c0
+        self._exchange(exchange)
         self._stage_x.pop()
+
+    def _part(self, part, fn, *args):
+        c0 = _clock()
+        fn(*args)
+        part.wall += _clock() - c0
+
+    def _exchange(self, exchange):
+        c0 = _clock()
+        exchange()
+        self.exchange_wall += _clock() - c0
 
 
 class ConcurrentOverlap:
@@ -73,10 +83,22 @@ class ConcurrentOverlap:
 
     def step(self, t0: float):
         """One system step from time ``t0``."""
+        clocks = self.clocks
+        if clocks.logging:
+            for part in self.parts:
+                clocks.part(part, part.advance, t0)
+            if self.exchange:
+                clocks.exchange(self.exchange)
+            return
+        c0 = _clock()                           # the same without logging stages, inline
         for part in self.parts:
-            self.clocks.part(part, part.advance, t0)
+            part.advance(t0)
+            c1 = _clock()
+            part.wall += c1 - c0
+            c0 = c1
         if self.exchange:
-            self.clocks.exchange(self.exchange)
+            self.exchange()
+            clocks.exchange_wall += _clock() - c0
 
 
 class Staggered(ConcurrentOverlap):

@@ -75,6 +75,7 @@ class Partition:
         for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
             getattr(self, name).setOptionsPrefix(self.prefix)
         self.Kneg = self.build_operator(model, layout)
+        self._step = self.integrator.bind(self)
         self.steps = 0
         self.wall = 0.0
 
@@ -135,28 +136,37 @@ class Partition:
     def _remember_loads(self):
         for k, (j, i) in enumerate(self._owned_loads):
             self._f_prev[k] = self.f_last[j]
-            self._u_prev[k] = self.U[i]
+            self._u_prev[k] = float(self.U[i])
 
     def after_step(self):
-        """Bookkeeping after every completed step: step count and external work
-        W += 1/2 (f_n + f_n+1) . (u_n+1 - u_n) over the owned loaded DOFs (the
-        work the trapezoidal rule balances exactly)."""
+        """Bookkeeping after every completed step: step count and external work."""
         self.steps += 1
+        self._track_work()
+
+    def _track_work(self):
+        """W += 1/2 (f_n + f_n+1) . (u_n+1 - u_n) over the owned loaded DOFs (the
+        work the trapezoidal rule balances exactly)."""
         if self._owned_loads:
-            U, f = self.U, self.f_last
+            U, f, f_prev, u_prev = self.U, self.f_last, self._f_prev, self._u_prev
             w = 0.0
             for k, (j, i) in enumerate(self._owned_loads):
-                w += 0.5 * (self._f_prev[k] + f[j]) * (U[i] - self._u_prev[k])
+                u, fj = float(U[i]), f[j]
+                w += 0.5 * (f_prev[k] + fj) * (u - u_prev[k])
+                f_prev[k], u_prev[k] = fj, u
             self.work += w
-            self._remember_loads()
 
     def advance(self, t0: float):
         """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
-        step = self.integrator.step
-        h = self.dt
-        for k in range(1, self.n_sub + 1):
-            step(self, t0 + k * h)
-            self.after_step()
+        step, h = self._step, self.dt
+        if self._owned_loads:
+            track = self._track_work
+            for k in range(1, self.n_sub + 1):
+                step(t0 + k * h)
+                track()
+        else:
+            for k in range(1, self.n_sub + 1):
+                step(t0 + k * h)
+        self.steps += self.n_sub
 
     def energies(self):
         """(kinetic, strain, external work) of the owned DOFs.
