@@ -86,10 +86,14 @@ def print_schemes():
     from .scene import Coupling
     for cls in integrators.CATALOGUE:
         print(f"{cls.__name__}: {cls.__doc__.strip()}\n")
-    print(f"coupling.scheme / coupling.external:")
+    from .coupling import SUPPORT
     from .schema import describe
+    print("coupling.scheme / coupling.external:")
     for name, tp, default, doc in describe(Coupling):
         print(f"  {name}: {tp} (default {default}) - {doc}")
+    print("\nsupported combinations:")
+    for scheme, text in SUPPORT.items():
+        print(f"  {scheme}: {text}")
 
 
 def main(argv=None) -> int:

@@ -143,3 +143,13 @@ class Staggered(ConcurrentOverlap):
 
 
 SCHEMES = {"overlap": ConcurrentOverlap, "staggered": Staggered}
+
+# What each coupling.scheme accepts (checked in Scene.validate and at launch).
+SUPPORT = {
+    "overlap": "any number of partitions, each fem+explicit, fem+implicit or dem+verlet; "
+               "1 rank or one rank per partition; external: taylor, layers, literal",
+    "staggered": "exactly two partitions: fem+implicit with the largest ratio, and fem+explicit "
+                 "or dem+verlet; 1 or 2 ranks; external (of the explicit side): taylor, layers, "
+                 "literal",
+    "gc": "exactly two partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank",
+}

@@ -36,8 +36,7 @@ def _key(scene) -> str:
     for arr in (net.mass, net.spring_i, net.spring_j, net.stiffness):
         h.update(np.ascontiguousarray(arr).tobytes())
     h.update(json.dumps([repr(scene.loads), repr(scene.initial), repr(scene.probes),
-                         scene.reference.dt, scene.reference.integrator, scene.time.end,
-                         scene.system_dt]).encode())
+                         scene.reference.dt, scene.reference.integrator, scene.time.end]).encode())
     return h.hexdigest()[:20]
 
 

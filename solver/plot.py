@@ -2,8 +2,12 @@
 error, and the energy balance.
 
     python -m solver.plot results/six_dof.h5 [-o results/six_dof.png]
+    python -m solver.plot A.h5 B.h5 [...] --probe p550 -o compare.png
 
-(``./run.sh plot FILE``).  Works on failed runs too: it shows where they stopped.
+(``./run.sh plot ...``).  Works on failed runs too: it shows where they stopped.
+With several files it overlays one probe of each, normalised by its largest
+displacement (seed 000 Fig. 8: the metamaterial chain with and without
+resonators).
 """
 from __future__ import annotations
 
@@ -59,16 +63,44 @@ def figure(path: str, out: str) -> str:
     return out
 
 
+def compare(paths, probe, out) -> str:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for path in paths:
+        with h5py.File(path, "r") as f:
+            name = probe or next(iter(f["probes"]))
+            g = f[f"probes/{name}"]
+            t, u = g["t"][()], g["displacement"][()]
+            label = f"{f.attrs['scene']} ({name})"
+        peak = np.abs(u).max() or 1.0
+        ax.plot(1e3 * t, u / peak, label=f"{label}, max |u| = {peak:.3g}")
+    ax.set(xlabel="t [ms]", ylabel="displacement / max displacement",
+           title="probe histories, each normalised by its own peak")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m solver.plot", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("file")
+    ap.add_argument("files", nargs="+")
     ap.add_argument("-o", "--out")
+    ap.add_argument("--probe", help="probe to compare across files (default: each file's first)")
     args = ap.parse_args(argv)
-    if not Path(args.file).is_file():
-        print(f"error: {args.file}: no such output file", file=sys.stderr)
-        return 2
-    out = figure(args.file, args.out or str(Path(args.file).with_suffix(".png")))
+    for path in args.files:
+        if not Path(path).is_file():
+            print(f"error: {path}: no such output file", file=sys.stderr)
+            return 2
+    if len(args.files) > 1:
+        out = compare(args.files, args.probe, args.out or "compare.png")
+    else:
+        out = figure(args.files[0], args.out or str(Path(args.files[0]).with_suffix(".png")))
     print(f"wrote {out}")
     return 0
 

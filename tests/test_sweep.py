@@ -21,4 +21,21 @@ def test_sweep_table(tmp_path):
         assert int(r["fem_steps"]) == 10000 // int(r["eta"])
     assert float(rows[0]["speedup"]) == 1.0
     assert (tmp_path / "sweep.png").stat().st_size > 10000
-    assert "| ranks | treatment | η |" in (tmp_path / "sweep.md").read_text()
+    assert "| ranks | scheme | treatment | η |" in (tmp_path / "sweep.md").read_text()
+
+
+def test_sweep_over_base_steps_fits_the_order(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "solver.sweep", "configs/five_node.yaml",
+                           "--dts", "0.002,0.006,0.01", "--schemes", "staggered,gc", "-n", "1,2",
+                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "skipping gc on 2 ranks" in proc.stdout
+    orders = {line.split(",")[1].split(" on")[0].strip(): float(line.rsplit(":", 1)[1])
+              for line in proc.stdout.splitlines() if line.startswith("observed order")}
+    assert abs(orders["staggered / layers"] - 2.0) < 0.2 and abs(orders["gc / layers"] - 1.0) < 0.2
+    rows = list(csv.DictReader(open(tmp_path / "sweep.csv")))
+    assert len(rows) == 9                                  # staggered x 2 ranks + gc x 1, 3 steps
+    two = [r for r in rows if r["ranks"] == "2"]
+    assert all(float(r["implicit_wait_us"]) > 0 and float(r["explicit_wait_us"]) > 0 for r in two)
+    assert "eq. 9 error" in (tmp_path / "sweep.md").read_text()
