@@ -121,11 +121,11 @@ class GravouilCombescure:
         B.residual(t_m, B.ut, B.vt)
         B.accelerate()
         self.vB0 = B.V[self.ib].copy()
-        self.vB_free = B._work["vt"][self.ib] + self._gb * B.A[self.ib]
+        self.vB_free = B.work_array("vt")[self.ib] + self._gb * B.A[self.ib]
 
     def _fine(self, t0):
         A, ia = self.A, self.ia
-        Vt, At = A._work["vt"], A.A
+        Vt, At = A.work_array("vt"), A.A
         for j in range(1, self.m + 1):
             A.integrator.predict(A)
             A.residual(t0 + j * A.dt, A.ut, A.vt)

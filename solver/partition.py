@@ -180,6 +180,10 @@ class Partition:
         strain = -0.5 * float(np.dot(self.U[:n], self.R[:n]))
         return kinetic, strain, self.work
 
+    def work_array(self, name: str) -> np.ndarray:
+        """numpy view of an integrator work Vec (``ut``, ``vt`` for Newmark)."""
+        return self._work[name]
+
     def local_index(self, node: int, component: int) -> int:
         loc = int(self.layout.local(np.array([node]))[0])
         return loc * self.dof + component
