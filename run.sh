@@ -10,7 +10,8 @@
 #
 # Every form first installs what is missing (idempotent): Debian's MPICH and
 # OpenBLAS, then a virtual environment with PETSc, petsc4py and mpi4py built
-# against that MPICH, plus the pinned wheels of requirements.txt.
+# against that MPICH (requirements-petsc.txt), plus the pinned wheels of
+# requirements.txt. A petsc4py + mpi4py already importable by python3 is reused.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 cd "$here"
@@ -34,35 +35,42 @@ ensure_system() {
       build-essential gfortran pkg-config python3-venv >/dev/null
 }
 
+petsc_ok() {
+  # A petsc4py and an mpi4py that import and initialise.
+  "$1" -c 'from petsc4py import PETSc; from mpi4py import MPI' >/dev/null 2>&1
+}
+
 python_ok() {
-  # A working petsc4py + mpi4py pair on the same MPI, plus the wheels.
-  "$1" - <<'PYEOF' >/dev/null 2>&1
-import petsc4py, mpi4py, numpy, h5py, yaml, matplotlib, meshio, pytest
-from petsc4py import PETSc
-from mpi4py import MPI
-PYEOF
+  petsc_ok "$1" && "$1" -c 'import numpy, h5py, yaml, matplotlib, meshio, pytest' >/dev/null 2>&1
 }
 
 ensure_python() {
   local stamp="$VENV/.requirements.sha"
-  local want; want="$(sha256sum requirements.txt | cut -d' ' -f1)"
+  local want; want="$(cat requirements.txt requirements-petsc.txt | sha256sum | cut -d' ' -f1)"
   if [ -x "$PY" ] && [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && python_ok "$PY"; then
     return
   fi
-  # A system/user Python that already has a working petsc4py is used as it is.
-  if [ -z "${MTS_VENV:-}" ] && [ ! -x "$PY" ] && python_ok "$(command -v python3)"; then
-    PY="$(command -v python3)"; log "using the already importable petsc4py of $PY"; return
-  fi
-  ensure_system
-  [ -x "$PY" ] || { log "creating virtual environment $VENV"; python3 -m venv "$VENV"; }
   local t0=$SECONDS
-  log "installing Python packages (PETSc builds from source the first time: ~10 min)"
-  "$PY" -m pip install -q --upgrade pip setuptools wheel
-  "$PY" -m pip install -q "$(grep -E '^numpy==' requirements.txt)" cython
-  # PETSc against Debian's MPICH and OpenBLAS, optimised, no downloads.
-  export PETSC_CONFIGURE_OPTIONS="--with-debugging=0 --with-blaslapack-lib=-lopenblas --with-fc=0 --with-x=0 COPTFLAGS=-O2 CXXOPTFLAGS=-O2"
-  MPICC=mpicc MPICXX=mpicxx "$PY" -m pip install -q --no-binary mpi4py,petsc,petsc4py -r requirements.txt
-  python_ok "$PY" || { log "installation finished but petsc4py/mpi4py do not import"; exit 1; }
+  if [ ! -x "$PY" ] && petsc_ok "$(command -v python3)"; then
+    # A working petsc4py + mpi4py is used as it is: the venv sees it, pip adds the rest.
+    log "using the petsc4py and mpi4py already importable by python3"
+    python3 -m venv --system-site-packages "$VENV"
+    "$PY" -m pip install -q -r requirements.txt
+  else
+    ensure_system
+    [ -x "$PY" ] || { log "creating virtual environment $VENV"; python3 -m venv "$VENV"; }
+    log "installing Python packages (PETSc builds from source the first time: ~18 min)"
+    "$PY" -m pip install -q --upgrade pip setuptools wheel
+    "$PY" -m pip install -q "$(grep -E '^numpy==' requirements.txt)" cython
+    if ! petsc_ok "$PY"; then
+      # PETSc against Debian's MPICH and OpenBLAS, optimised, no downloads.
+      export PETSC_CONFIGURE_OPTIONS="--with-debugging=0 --with-blaslapack-lib=-lopenblas --with-fc=0 --with-x=0 COPTFLAGS=-O2 CXXOPTFLAGS=-O2"
+      MPICC=mpicc MPICXX=mpicxx "$PY" -m pip install -q --no-binary mpi4py,petsc,petsc4py \
+        -r requirements-petsc.txt
+    fi
+    "$PY" -m pip install -q -r requirements.txt
+  fi
+  python_ok "$PY" || { log "installation finished but petsc4py/mpi4py or the wheels do not import"; exit 1; }
   echo "$want" > "$stamp"
   log "Python environment ready in $((SECONDS - t0)) s"
 }
