@@ -62,13 +62,13 @@ def P_int():
     return init().IntType
 
 
-def aij(rows, cols, vals, n, comm, prefix: str, scale: float = 1.0):
-    """Sequential-layout AIJ matrix from COO entries; options prefix applied and
-    setFromOptions called so -<prefix>mat_type etc. take effect."""
+def aij(rows, cols, vals, n, comm, prefix: str, scale: float = 1.0, bs: int = 1):
+    """Sequential-layout AIJ matrix from COO entries (block size ``bs``); options
+    prefix applied and setFromOptions called so -<prefix>mat_type etc. take effect."""
     P = init()
     indptr, indices, data = coo_to_csr(rows, cols, scale * np.asarray(vals, dtype=float), n)
     A = P.Mat().create(comm=comm)
-    A.setSizes((n, n))
+    A.setSizes((n, n), bsize=bs)
     A.setType(P.Mat.Type.AIJ)
     A.setOptionsPrefix(prefix)
     A.setFromOptions()

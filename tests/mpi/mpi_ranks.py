@@ -52,3 +52,12 @@ def test_staggered_one_and_two_ranks_agree(shared_tmp):
     assert np.abs(a["displacement"]).max() > 0
     assert np.abs(a["displacement"] - b["displacement"]).max() <= 1e-12 * np.abs(a["displacement"]).max()
     world.barrier()
+
+
+def test_mesh_is_read_on_one_rank_and_broadcast():
+    from solver.mesh import read
+    world = MPI.COMM_WORLD
+    mesh = read("meshes/bar2d.geo", world)
+    points = world.allgather(mesh.points)
+    assert points[0].shape == (164, 2) and np.array_equal(points[0], points[1])
+    assert sorted(mesh.groups) == ["left", "right", "solid"]

@@ -1,0 +1,164 @@
+"""Linear elastic element kernels, vectorised over elements (numpy only).
+
+One isoparametric path serves the four families:
+
+    tri3   linear triangle (plane stress with thickness, or plane strain), 1-point rule
+    quad4  bilinear quadrilateral, 2x2 Gauss
+    tet4   linear tetrahedron, 1-point rule
+    hex8   trilinear hexahedron, 2x2x2 Gauss
+
+Node orderings are gmsh's.  Element DOFs are node-major ([u_x, u_y(, u_z)] per
+node), matching the global numbering ``node * dim + component`` (block size
+= dim).  ``stiffness`` returns K_e [n_el, nd, nd]; ``lumped_mass`` returns the
+row sums of the consistent mass, rho * integral of N_a, per node [n_el, n_nodes].
+An element whose Jacobian determinant is not positive at a quadrature point
+(inverted or degenerate) is refused, naming the element.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+G = 1.0 / np.sqrt(3.0)
+
+
+@dataclass(frozen=True)
+class Family:
+    name: str
+    dim: int
+    n_nodes: int
+    points: np.ndarray       # quadrature points [n_q, dim]
+    weights: np.ndarray      # [n_q]
+
+    def shape(self, xi):
+        """N [n_q, n_nodes] and dN/dxi [n_q, n_nodes, dim] at points ``xi``."""
+        return SHAPES[self.name](np.asarray(xi, dtype=float))
+
+
+def _tri3(xi):
+    x, y = xi[:, 0], xi[:, 1]
+    N = np.stack([1 - x - y, x, y], axis=1)
+    dN = np.broadcast_to(np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]]), (len(xi), 3, 2))
+    return N, dN
+
+
+def _tet4(xi):
+    x, y, z = xi.T
+    N = np.stack([1 - x - y - z, x, y, z], axis=1)
+    dN = np.broadcast_to(np.vstack([-np.ones(3), np.eye(3)]), (len(xi), 4, 3))
+    return N, dN
+
+
+QUAD_NODES = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
+HEX_NODES = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
+                      [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
+
+
+def _tensor(nodes):
+    def shape(xi):
+        f = 1 + xi[:, None, :] * nodes[None, :, :]           # [n_q, n_nodes, dim]
+        scale = 0.5 ** nodes.shape[1]
+        N = scale * np.prod(f, axis=2)
+        dN = np.empty_like(f)
+        for d in range(nodes.shape[1]):
+            others = np.prod(np.delete(f, d, axis=2), axis=2)
+            dN[:, :, d] = scale * nodes[None, :, d] * others
+        return N, dN
+    return shape
+
+
+SHAPES = {"tri3": _tri3, "tet4": _tet4, "quad4": _tensor(QUAD_NODES), "hex8": _tensor(HEX_NODES)}
+FAMILIES = {
+    "tri3": Family("tri3", 2, 3, np.array([[1 / 3, 1 / 3]]), np.array([0.5])),
+    "quad4": Family("quad4", 2, 4, np.array([[a, b] for b in (-G, G) for a in (-G, G)]), np.ones(4)),
+    "tet4": Family("tet4", 3, 4, np.array([[0.25, 0.25, 0.25]]), np.array([1 / 6])),
+    "hex8": Family("hex8", 3, 8, np.array([[a, b, c] for c in (-G, G) for b in (-G, G)
+                                           for a in (-G, G)]), np.ones(8)),
+}
+
+
+@dataclass(frozen=True)
+class Elastic:
+    """Linear elastic material. ``kind``: plane_stress (with ``thickness``),
+    plane_strain, or solid (3D)."""
+
+    E: float
+    nu: float
+    rho: float
+    kind: str = "solid"
+    thickness: float = 1.0
+
+    def D(self) -> np.ndarray:
+        E, nu = self.E, self.nu
+        if self.kind == "plane_stress":
+            return E / (1 - nu ** 2) * np.array([[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu) / 2]])
+        if self.kind == "plane_strain":
+            c = E / ((1 + nu) * (1 - 2 * nu))
+            return c * np.array([[1 - nu, nu, 0], [nu, 1 - nu, 0], [0, 0, (1 - 2 * nu) / 2]])
+        lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+        D = np.zeros((6, 6))
+        D[:3, :3] = lam
+        D[np.arange(3), np.arange(3)] += 2 * mu
+        D[np.arange(3, 6), np.arange(3, 6)] = mu
+        return D
+
+    def measure(self) -> float:
+        """Out-of-plane factor of the volume integral (thickness in 2D)."""
+        return self.thickness if self.kind == "plane_stress" else 1.0
+
+
+class BadElement(ValueError):
+    def __init__(self, index: int, detj: float):
+        super().__init__(f"element {index} is inverted or degenerate (Jacobian determinant {detj:.3g})")
+        self.index = index
+
+
+def _geometry(family: Family, X: np.ndarray):
+    """(N [q, a], dN/dx [e, q, a, d], w*detJ [e, q]) for coordinates X [e, a, d]."""
+    N, dN = family.shape(family.points)
+    J = np.einsum("qai,eaj->eqij", dN, X)            # J_ij = dx_j / dxi_i  [e, q, i, j]
+    detJ = np.linalg.det(J)
+    bad = detJ <= 0
+    if bad.any():
+        e, q = np.argwhere(bad)[0]
+        raise BadElement(int(e), float(detJ[e, q]))
+    dNdx = np.einsum("eqij,qaj->eqai", np.linalg.inv(J), dN)   # dN/dx_i = (J^-1)_ij dN/dxi_j
+    return N, dNdx, detJ * family.weights
+
+
+def strain_matrix(dNdx: np.ndarray) -> np.ndarray:
+    """B [e, q, n_strain, n_nodes*dim] (Voigt: 2D xx, yy, xy; 3D xx, yy, zz, yz, xz, xy)."""
+    e, q, a, d = dNdx.shape
+    if d == 2:
+        B = np.zeros((e, q, 3, a, 2))
+        B[:, :, 0, :, 0] = dNdx[..., 0]
+        B[:, :, 1, :, 1] = dNdx[..., 1]
+        B[:, :, 2, :, 0] = dNdx[..., 1]
+        B[:, :, 2, :, 1] = dNdx[..., 0]
+    else:
+        B = np.zeros((e, q, 6, a, 3))
+        for i in range(3):
+            B[:, :, i, :, i] = dNdx[..., i]
+        for row, (i, j) in zip((3, 4, 5), ((1, 2), (0, 2), (0, 1))):
+            B[:, :, row, :, i] = dNdx[..., j]
+            B[:, :, row, :, j] = dNdx[..., i]
+    return B.reshape(e, q, B.shape[2], a * d)
+
+
+def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
+    """Element stiffness matrices K_e [n_el, n_nodes*dim, n_nodes*dim]."""
+    _, dNdx, wdet = _geometry(family, X)
+    B = strain_matrix(dNdx)
+    return material.measure() * np.einsum("eq,eqsi,st,eqtj->eij", wdet, B, material.D(), B)
+
+
+def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
+    """Nodal masses rho * integral(N_a) per element node [n_el, n_nodes]."""
+    N, _, wdet = _geometry(family, X)
+    return material.rho * material.measure() * np.einsum("eq,qa->ea", wdet, N)
+
+
+def volumes(family: Family, X: np.ndarray) -> np.ndarray:
+    _, _, wdet = _geometry(family, X)
+    return wdet.sum(axis=1)

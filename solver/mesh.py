@@ -1,0 +1,98 @@
+"""Meshes from gmsh: a .geo meshed through the gmsh API, or a .msh read by it.
+
+Read on one rank and broadcast (``read(path, comm)``).  Scenes name physical
+groups, not tags: ``Mesh.group(name)`` returns a group or raises a one-line
+error that lists the groups the mesh has.  Cells of the top dimension are
+kept per family (tri3, quad4, tet4, hex8); lower-dimensional groups keep their
+node sets and facets (for Dirichlet conditions and tractions).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SceneError
+
+GMSH_TYPES = {1: ("line2", 1, 2), 2: ("tri3", 2, 3), 3: ("quad4", 2, 4), 4: ("tet4", 3, 4),
+              5: ("hex8", 3, 8), 15: ("point", 0, 1)}
+
+
+@dataclass(frozen=True)
+class Group:
+    """A physical group: its dimension, nodes (mesh indices) and cells per family."""
+
+    name: str
+    dim: int
+    nodes: np.ndarray
+    cells: dict = field(default_factory=dict)     # family -> connectivity (mesh node indices)
+    cell_tags: dict = field(default_factory=dict)  # family -> gmsh element tags
+
+
+@dataclass(frozen=True)
+class Mesh:
+    points: np.ndarray           # [n_nodes, dim]
+    dim: int
+    groups: dict                 # name -> Group
+
+    def group(self, name: str, where: str = "") -> Group:
+        if name not in self.groups:
+            have = ", ".join(f"{g} (dim {self.groups[g].dim})" for g in sorted(self.groups))
+            raise SceneError(f"{where + ': ' if where else ''}mesh has no physical group "
+                             f"{name!r}; it has: {have or 'none'}")
+        return self.groups[name]
+
+
+def _read_gmsh(path: str, dim: int | None) -> Mesh:
+    import gmsh
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(path)
+        if path.endswith(".geo"):
+            gmsh.model.mesh.generate(dim or gmsh.model.getDimension())
+        top = dim or gmsh.model.getDimension()
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(tags.size)
+        points = coords.reshape(-1, 3)[:, :top]
+        groups = {}
+        for gdim, gtag in gmsh.model.getPhysicalGroups():
+            name = gmsh.model.getPhysicalName(gdim, gtag) or f"{gdim}:{gtag}"
+            cells, etags = {}, {}
+            for ent in gmsh.model.getEntitiesForPhysicalGroup(gdim, gtag):
+                types, el_tags, node_tags = gmsh.model.mesh.getElements(gdim, ent)
+                for t, et, nt in zip(types, el_tags, node_tags):
+                    if t not in GMSH_TYPES:
+                        raise SceneError(f"{path}: group {name!r} has gmsh element type {t}, "
+                                         f"supported: {sorted(v[0] for v in GMSH_TYPES.values())}")
+                    fam, _, k = GMSH_TYPES[t]
+                    conn = index[nt.astype(np.int64)].reshape(-1, k)
+                    cells[fam] = np.concatenate([cells[fam], conn]) if fam in cells else conn
+                    etags[fam] = np.concatenate([etags[fam], et]) if fam in etags else et
+            nodes = np.unique(np.concatenate([c.ravel() for c in cells.values()])) if cells \
+                else np.zeros(0, dtype=np.int64)
+            groups[name] = Group(name, gdim, nodes, cells, etags)
+        return Mesh(points, top, groups)
+    finally:
+        gmsh.finalize()
+
+
+def read(path: str, comm=None, dim: int | None = None) -> Mesh:
+    """Mesh ``path`` (.geo or .msh) on rank 0 of ``comm`` and broadcast it."""
+    if not Path(path).is_file():
+        raise SceneError(f"{path}: mesh file not found")
+    mesh, error = None, None
+    if comm is None or comm.rank == 0:
+        try:
+            mesh = _read_gmsh(str(path), dim)
+        except SceneError as e:
+            error = str(e)
+        except Exception as e:                                 # gmsh reports parse errors so
+            error = f"{path}: gmsh could not read it ({e})"
+    if comm is not None and comm.size > 1:
+        mesh, error = comm.bcast((mesh, error))
+    if error:
+        raise SceneError(error)
+    return mesh
