@@ -25,11 +25,12 @@ class FemPartition(Partition):
 
     def build_operator(self, model, layout):
         rows, cols, vals = model.stiffness_triplets(layout.held)
-        K = aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=-1.0)
+        K = aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=-1.0,
+                bs=self.dof)
         K.setName(f"{self.name}_stiffness")
         n = K.getSize()[0]
         self.built = [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
-                      f"type {K.getType()})", "lumped mass"]
+                      f"type {K.getType()}, block size {K.getBlockSize()})", "lumped mass"]
         if self.integrator.name == "implicit":
             self._build_solver(rows, cols, vals)
         return K
@@ -41,7 +42,7 @@ class FemPartition(Partition):
         diag = np.arange(n)
         K_eff = aij(np.concatenate([rows, diag]), np.concatenate([cols, diag]),
                     np.concatenate([self.integrator.beta * h * h * np.asarray(vals), self.mass]),
-                    n, self.comm, self.prefix)
+                    n, self.comm, self.prefix, bs=self.dof)
         K_eff.setName(f"{self.name}_effective")
         self._mats = [K_eff]
         m = self._solve[0].getSize()

@@ -17,10 +17,11 @@ from .scene import Scene
 
 @dataclass(frozen=True)
 class PointLoad:
-    """A time function applied to one DOF."""
+    """A time function times ``scale`` applied to one DOF."""
 
     dof: int
     function: LoadFunction
+    scale: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,11 @@ class Model:
     @property
     def n_nodes(self) -> int:
         return self.mass.size
+
+    @property
+    def fixed(self) -> np.ndarray:
+        """Fixed DOFs (networks fix through ground springs: none)."""
+        return np.zeros(self.n_dofs, bool)
 
     @property
     def n_dofs(self) -> int:
@@ -94,7 +100,15 @@ def spring_triplets(li, lj, k):
     return rows.astype(np.int64), cols.astype(np.int64), vals
 
 
-def build(scene: Scene) -> Model:
+def build(scene: Scene):
+    """Arrays of the scene's model (network or continuum)."""
+    if scene.model.kind == "continuum":
+        from . import continuum
+        return continuum.build(scene)
+    return build_network(scene)
+
+
+def build_network(scene: Scene) -> Model:
     """Arrays of the scene's network model."""
     net = scene.model.network
     n, dof = net.mass.size, 1

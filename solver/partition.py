@@ -57,6 +57,7 @@ class Partition:
             setattr(self, name, vec_on(arr, comm))
         self.mass = np.repeat(model.mass[held], dof)
         self._minv = 1.0 / self.mass
+        self._minv[model.fixed[self.held_dofs]] = 0.0        # fixed DOFs never accelerate
         self.minv = vec_on(self._minv, comm)
         # taylor / prescribed: the acceleration solve covers the owned DOFs only,
         # so external accelerations keep their exchanged values
@@ -86,7 +87,7 @@ class Partition:
     def _setup_loads(self, model, layout):
         nodes = np.array([l.dof // model.dof for l in model.loads], dtype=np.int64)
         local = layout.local(nodes) if nodes.size else nodes
-        self._loads = []           # (local dof, g.at)
+        self._loads = []           # (local dof, g.at, scale)
         self._owned_loads = []     # (index into _loads, local dof)
         for load, loc in zip(model.loads, local):
             if loc < 0:
@@ -94,7 +95,7 @@ class Partition:
             i = int(loc) * model.dof + load.dof % model.dof
             if loc < layout.n_owned:
                 self._owned_loads.append((len(self._loads), i))
-            self._loads.append((i, load.function.at))
+            self._loads.append((i, load.function.at, load.scale))
         self.f_last = [0.0] * len(self._loads)
         self.work = 0.0
         self._f_prev = [0.0] * len(self._owned_loads)
@@ -115,8 +116,8 @@ class Partition:
         if self._loads:
             R = self.R
             f = self.f_last
-            for j, (i, g) in enumerate(self._loads):
-                val = g(t)
+            for j, (i, g, scale) in enumerate(self._loads):
+                val = scale * g(t)
                 f[j] = val
                 R[i] += val
 

@@ -127,8 +127,8 @@ def modal(model, dofs, t, chunk=4096):
         q, qd = free(q0, qd0, w, tc)
         for load in model.loads:
             fq, fqd = forced_response(load.function, w, tc)
-            q += fq * phi[load.dof]
-            qd += fqd * phi[load.dof]
+            q += fq * (load.scale * phi[load.dof])
+            qd += fqd * (load.scale * phi[load.dof])
         u[a:a + chunk] = q @ phi[dofs].T
         v[a:a + chunk] = qd @ phi[dofs].T
     return u, v

@@ -47,7 +47,9 @@ def check_stability(scene, mdl, layouts, ids):
     for p in ids:
         spec, lay = scene.partitions[p], layouts[p]
         rows, cols, vals = mdl.stiffness_triplets(lay.held)
-        fr = stability.omega_max(rows, cols, vals, np.repeat(mdl.mass[lay.held], mdl.dof))
+        held_dofs = (lay.held[:, None] * mdl.dof + np.arange(mdl.dof)).ravel()
+        mass = np.where(mdl.fixed[held_dofs], np.inf, np.repeat(mdl.mass[lay.held], mdl.dof))
+        fr = stability.omega_max(rows, cols, vals, mass)
         dt = spec.ratio * scene.time.dt
         freqs[spec.name] = fr
         limit = integrators.make(spec).critical_omega_h()

@@ -165,6 +165,77 @@ class NetworkModel:
         return int(self.network.mass.size)
 
 
+@dataclass(frozen=True)
+class Material:
+    E: float = key("Young's modulus [Pa]", positive=True)
+    nu: float = key("Poisson's ratio", nonnegative=True)
+    rho: float = key("density [kg/m^3]", positive=True)
+    kind: Literal["plane_stress", "plane_strain", "solid"] = key(
+        "plane_stress (2D, with thickness), plane_strain (2D) or solid (3D)", "solid")
+    thickness: float = key("out-of-plane thickness [m] (plane_stress)", 1.0, positive=True)
+
+    def validate(self, path):
+        if not self.nu < 0.5:
+            fail(f"{path}.nu", f"{self.nu} must be below 0.5")
+
+    def elastic(self):
+        from .elements import Elastic
+        return Elastic(self.E, self.nu, self.rho, self.kind, self.thickness)
+
+
+@dataclass(frozen=True)
+class ContinuumModel:
+    """An elastic body meshed with gmsh; nodes carry dim DOFs."""
+
+    kind: Literal["continuum"] = key("model kind")
+    mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the working directory")
+    material: Material = key("linear elastic material")
+    body: str = key("physical group of the body's cells", "solid")
+    fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())
+
+    def validate(self, path):
+        if self.mesh.endswith(".geo") or self.mesh.endswith(".msh"):
+            pass
+        else:
+            fail(f"{path}.mesh", f"{self.mesh}: expected a .geo or .msh file")
+        try:
+            m = self.mesh_data
+        except SceneError as e:
+            fail(f"{path}.mesh", str(e))
+        m.group(self.body, f"{path}.body")
+        for name in self.fixed:
+            m.group(name, f"{path}.fixed")
+        wants = "solid" if m.dim == 3 else ("plane_stress", "plane_strain")
+        if (m.dim == 3) != (self.material.kind == "solid"):
+            fail(f"{path}.material.kind", f"{self.material.kind} does not fit a {m.dim}D mesh "
+                 f"(use {wants})")
+
+    @cached_property
+    def mesh_data(self):
+        from .mesh import read
+        return read(self.mesh)
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.mesh_data.points)
+
+    @property
+    def dim(self) -> int:
+        return self.mesh_data.dim
+
+
+MODELS = {"network": NetworkModel, "continuum": ContinuumModel}
+
+
+def _model(value, path):
+    if not isinstance(value, dict):
+        fail(path, f"expected a mapping with a kind ({', '.join(MODELS)}), got {value!r}")
+    kind = value.get("kind")
+    if kind not in MODELS:
+        fail(f"{path}.kind", f"{kind!r} is not one of {', '.join(MODELS)}")
+    return parse(MODELS[kind], value, path)
+
+
 def _node_set(value, path):
     """Node ids as a list of ids and {range: [first, end)} items, or one range."""
     items = [value] if isinstance(value, dict) else value
@@ -195,19 +266,23 @@ NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
 class Partition:
     name: str = key("partition name; also the PETSc options prefix (name_)")
     method: Literal["fem", "dem"] = key("fem: sparse matrix partition; dem: particles and bonds")
-    nodes: tuple[int, ...] = key("node ids owned by this partition: ids and {range: [first, end]} "
-                                 "items (end excluded)", parse=_node_set,
-                                 choices_doc="list of int | {range: [int, int]}")
     integrator: Literal["explicit", "implicit", "verlet"] = key(
         "explicit / implicit: Newmark predictor-corrector, explicit or implicit form (fem); "
         "verlet: velocity Verlet (dem)")
     ratio: int = key("this partition steps ratio*time.dt", positive=True)
+    nodes: tuple[int, ...] = key("node ids owned by this partition: ids and {range: [first, end]} "
+                                 "items (end excluded); or give group", (), parse=_node_set,
+                                 choices_doc="list of int | {range: [int, int]}")
+    group: str | None = key("continuum models: the physical group whose nodes this partition "
+                            "owns (nodes shared with an earlier partition stay there)", None)
     beta: float = key("Newmark beta (explicit and implicit integrators)", 0.25, nonnegative=True)
     gamma: float = key("Newmark gamma (explicit and implicit integrators)", 0.5, positive=True)
 
     SUPPORTED = {("fem", "explicit"), ("fem", "implicit"), ("dem", "verlet")}
 
     def validate(self, path):
+        if bool(self.nodes) == (self.group is not None):
+            fail(f"{path}.nodes", "give either nodes or group")
         if not NAME.match(self.name):
             fail(f"{path}.name", f"{self.name!r} must be letters and digits, starting with a letter "
                  "(it becomes the PETSc options prefix)")
@@ -233,10 +308,14 @@ class Coupling:
 
 @dataclass(frozen=True)
 class Load:
-    node: int = key("loaded node", nonnegative=True)
     kind: Literal["sine", "half_sine", "tabulated"] = key(
         "sine: A sin(omega t); half_sine: A sin(pi (t-start)/duration) on [start, start+duration], "
         "0 elsewhere; tabulated: piecewise linear through table, end values held")
+    node: int | None = key("loaded node (or give group)", None, nonnegative=True)
+    group: str | None = key("continuum models: physical group (edge in 2D, face in 3D) carrying "
+                            "a traction: amplitude in N/m (2D) or N/m^2 (3D)", None)
+    direction: tuple[float, ...] | None = key("continuum models: traction direction (default "
+                                              "[1, 0(, 0)])", None)
     component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
     amplitude: float = key("A [N] (sine, half_sine)", 1.0)
     omega: float | None = key("angular frequency [rad/s] (sine)", None, positive=True)
@@ -246,6 +325,8 @@ class Load:
                                                       None)
 
     def validate(self, path):
+        if (self.node is None) == (self.group is None):
+            fail(f"{path}.node", "give either node or group")
         need = {"sine": ("omega",), "half_sine": ("duration",), "tabulated": ("table",)}[self.kind]
         for name in ("omega", "duration", "table"):
             given = getattr(self, name) is not None
@@ -271,7 +352,9 @@ class Initial:
 @dataclass(frozen=True)
 class Probe:
     name: str = key("probe name (HDF5 group /probes/<name>)")
-    node: int = key("probed node", nonnegative=True)
+    node: int | None = key("probed node (or give at)", None, nonnegative=True)
+    at: tuple[float, ...] | None = key("continuum models: coordinates; the nearest mesh node is "
+                                       "probed", None)
     component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
 
 
@@ -308,7 +391,10 @@ class Guard:
 class Scene:
     name: str = key("scene name")
     time: Time = key("time span and base step")
-    model: NetworkModel = key("the structure")
+    model: NetworkModel | ContinuumModel = key(
+        "the structure: kind network (masses and springs) or continuum (gmsh mesh)",
+        parse=_model, choices_doc="mapping with kind: network | continuum",
+        variants=(NetworkModel, ContinuumModel))
     partitions: tuple[Partition, ...] = key("partitions; each node is owned by exactly one")
     coupling: Coupling = key("how partitions exchange", Coupling())
     loads: tuple[Load, ...] = key("external forces", ())
@@ -338,17 +424,50 @@ class Scene:
     def output_file(self) -> str:
         return self.output.file if self.output else f"results/{self.name}.h5"
 
+    def owned_nodes(self) -> list[tuple[int, ...]]:
+        """Node ids of every partition (mesh groups resolved; a node in two
+        groups stays with the earlier partition)."""
+        out, taken = [], set()
+        for part in self.partitions:
+            if part.group is None:
+                out.append(part.nodes)
+                continue
+            nodes = self.model.mesh_data.group(part.group).nodes.tolist()
+            mine = tuple(n for n in nodes if n not in taken)
+            taken.update(mine)
+            out.append(mine)
+        return out
+
+    def probe_node(self, probe) -> int:
+        if probe.node is not None:
+            return probe.node
+        pts = self.model.mesh_data.points
+        return int(np.argmin(np.linalg.norm(pts - np.asarray(probe.at)[:pts.shape[1]], axis=1)))
+
+    @property
+    def dof(self) -> int:
+        return self.model.dim if self.model.kind == "continuum" else 1
+
     def validate(self, path):
         n = self.model.n_nodes
+        continuum = self.model.kind == "continuum"
         if not self.partitions:
             fail("partitions", "at least one partition is needed")
+        for p, part in enumerate(self.partitions):
+            if continuum and part.method != "fem":
+                fail(f"partitions[{p}].method", "continuum models take fem partitions (bonded "
+                     "lattices for dem partitions are not there yet)")
+            if part.group is not None and not continuum:
+                fail(f"partitions[{p}].group", "groups name mesh regions: continuum models only")
+            if part.group is not None:
+                self.model.mesh_data.group(part.group, f"partitions[{p}].group")
         owner: dict[int, str] = {}
         names = set()
-        for p, part in enumerate(self.partitions):
+        for p, (part, nodes) in enumerate(zip(self.partitions, self.owned_nodes())):
             if part.name in names:
                 fail(f"partitions[{p}].name", f"duplicate partition name {part.name!r}")
             names.add(part.name)
-            for node in part.nodes:
+            for node in nodes:
                 if node >= n:
                     fail(f"partitions[{p}].nodes", f"node {node} out of range (model has {n} nodes)")
                 if node in owner:
@@ -367,21 +486,46 @@ class Scene:
         if self.n_system_steps < 1:
             fail("time.end", f"{self.time.end} is shorter than one system step ({self.system_dt})")
         for i, load in enumerate(self.loads):
-            self._check_dof(f"loads[{i}]", load.node, load.component)
+            if load.group is not None:
+                if not continuum:
+                    fail(f"loads[{i}].group", "tractions on groups need a continuum model")
+                self.model.mesh_data.group(load.group, f"loads[{i}].group")
+                if load.direction is not None and len(load.direction) != self.dof:
+                    fail(f"loads[{i}].direction", f"needs {self.dof} components")
+            else:
+                self._check_dof(f"loads[{i}]", load.node, load.component)
         for kind in ("displacement", "velocity"):
             for node in getattr(self.initial, kind):
                 self._check_dof(f"initial.{kind}.{node}", node, 0)
         seen = set()
         for i, probe in enumerate(self.probes):
-            self._check_dof(f"probes[{i}]", probe.node, probe.component)
+            if (probe.node is None) == (probe.at is None):
+                fail(f"probes[{i}].node", "give either node or at")
+            if probe.at is not None and not continuum:
+                fail(f"probes[{i}].at", "coordinates need a continuum model")
+            self._check_dof(f"probes[{i}]", self.probe_node(probe), probe.component)
             if probe.name in seen:
                 fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
             seen.add(probe.name)
+        if continuum and self.reference == "modal":
+            fail("reference", "modal references are for network models")
+        if continuum and self.initial != Initial():
+            fail("initial", "initial states are for network models (continua start at rest)")
         if isinstance(self.reference, MonolithicReference):
             ratio = self.system_dt / self.reference.dt
             if abs(ratio - round(ratio)) > 1e-6 * ratio:
                 fail("reference.dt", f"{self.reference.dt} does not divide the system step "
                      f"{self.system_dt}")
+            if continuum and self.reference.integrator != "explicit":
+                fail("reference.integrator", "continuum references run the explicit fem integrator")
+
+    def resolved(self) -> "Scene":
+        """The same scene with mesh groups and probe coordinates turned into node ids."""
+        import dataclasses
+        parts = tuple(dataclasses.replace(p, nodes=nodes, group=None)
+                      for p, nodes in zip(self.partitions, self.owned_nodes()))
+        probes = tuple(dataclasses.replace(p, node=self.probe_node(p), at=None) for p in self.probes)
+        return dataclasses.replace(self, partitions=parts, probes=probes)
 
     def _check_staggered(self):
         parts, scheme = self.partitions, self.coupling.scheme
@@ -401,8 +545,9 @@ class Scene:
         if node < 0 or node >= self.model.n_nodes:
             fail(f"{path}.node" if "initial" not in path else path,
                  f"node {node} out of range (model has {self.model.n_nodes} nodes)")
-        if component != 0:
-            fail(f"{path}.component", f"component {component} out of range (network nodes have 1 DOF)")
+        if component >= self.dof:
+            fail(f"{path}.component", f"component {component} out of range (nodes have "
+                 f"{self.dof} DOF)")
 
 
 # ---------------------------------------------------------------------------
@@ -481,7 +626,7 @@ def load_raw(path: str | Path) -> dict:
 
 
 def from_dict(raw: dict) -> Scene:
-    return parse(Scene, raw)
+    return parse(Scene, raw).resolved()
 
 
 def load(path: str | Path, overrides=()) -> Scene:

@@ -189,9 +189,10 @@ def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
             default = "required"
         rows.append((name, tdoc, default, f.metadata.get("doc", "")))
         for variant in f.metadata.get("variants", ()):
-            label = typing.get_args(_hints(variant)["name"])[0]
+            tag = "name" if "name" in _hints(variant) else "kind"
+            label = typing.get_args(_hints(variant)[tag])[0]
             rows += [(n, t, d, f"({label}) {doc}") for n, t, d, doc in describe(variant, f"{name}.")
-                     if n != f"{name}.name"]
+                     if n != f"{name}.{tag}"]
         if f.metadata.get("parse") is not None:
             continue
         inner = tp

@@ -30,7 +30,7 @@ def omega_max(rows, cols, vals, mass: np.ndarray) -> Frequency:
     n = mass.size
     if n == 0 or len(vals) == 0:
         return Frequency(0.0, "exact")
-    s = 1.0 / np.sqrt(mass)
+    s = 1.0 / np.sqrt(mass)          # fixed DOFs carry infinite mass: their rows drop out
     scaled = vals * s[rows] * s[cols]
     if n <= DENSE_LIMIT:
         A = np.zeros((n, n))

@@ -31,7 +31,7 @@ def test_in_process_mpi_suite():
                            "no:cacheprovider", "tests/mpi/mpi_ranks.py"], cwd=ROOT,
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    assert "5 passed" in proc.stdout
+    assert "6 passed" in proc.stdout
 
 
 def test_launcher_mismatch_is_detected():

@@ -61,3 +61,18 @@ def test_mesh_is_read_on_one_rank_and_broadcast():
     points = world.allgather(mesh.points)
     assert points[0].shape == (164, 2) and np.array_equal(points[0], points[1])
     assert sorted(mesh.groups) == ["left", "right", "solid"]
+
+
+def test_continuum_one_and_two_ranks_agree(shared_tmp):
+    from test_continuum import split_bar
+    world = MPI.COMM_WORLD
+    raw = split_bar(shared_tmp, eta=2, end=4e-6)
+    raw["name"] = f"cont_serial_{world.rank}"
+    serial = run_scene(raw, shared_tmp, comm=MPI.COMM_SELF)
+    raw["name"] = "cont_parallel"
+    parallel = run_scene(raw, shared_tmp, comm=world)
+    for probe in ("mid", "w"):
+        a, b = serial.probes[probe]["velocity"], parallel.probes[probe]["velocity"]
+        assert np.abs(a).max() > 0
+        assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max()
+    world.barrier()

@@ -1,0 +1,113 @@
+"""Continuum model from a gmsh mesh: the same interface as the network Model.
+
+Nodes are mesh nodes with ``dim`` DOFs each (index ``node * dim + c``).  The
+stiffness of a set of held nodes is assembled from the body's cells whose
+nodes are all held; every node's lumped mass sums its cells' shares; nodes of
+``fixed`` groups have all DOFs fixed (their accelerations stay zero).
+Tractions on boundary groups become consistent nodal forces (a line load
+q [N/m] on a 2D edge, a pressure-like load [N/m^2] on a 3D face).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .assembly import group_matrices, nodal, stiffness_triplets
+from .loads import load_function
+from .model import PointLoad
+
+
+@dataclass(frozen=True)
+class ContinuumArrays:
+    dof: int
+    points: np.ndarray
+    mass: np.ndarray             # [n_nodes] lumped
+    cells: list                  # (family, conn, Ke) per cell family of the body
+    fixed: np.ndarray            # [n_nodes * dof] bool
+    loads: tuple
+    u0: np.ndarray
+    v0: np.ndarray
+
+    @property
+    def n_nodes(self) -> int:
+        return self.mass.size
+
+    @property
+    def n_dofs(self) -> int:
+        return self.n_nodes * self.dof
+
+    def neighbours(self) -> list[np.ndarray]:
+        pairs = []
+        for _, conn, _ in self.cells:
+            k = conn.shape[1]
+            a = np.repeat(conn, k, axis=1).ravel()
+            b = np.tile(conn, (1, k)).ravel()
+            pairs.append(np.stack([a, b])[:, a != b])
+        a, b = np.unique(np.concatenate(pairs, axis=1), axis=1)
+        cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
+        return [b[cuts[n]:cuts[n + 1]] for n in range(self.n_nodes)]
+
+    def stiffness_triplets(self, held: np.ndarray):
+        """COO stiffness over the held nodes (local DOF numbering) from the cells
+        whose nodes are all held."""
+        local = np.full(self.n_nodes, -1, dtype=np.int64)
+        local[held] = np.arange(held.size)
+        rows, cols, vals = [], [], []
+        for _, conn, Ke in self.cells:
+            lc = local[conn]
+            keep = np.all(lc >= 0, axis=1)
+            r, c, v = stiffness_triplets(Ke[keep], lc[keep], self.dof)
+            rows.append(r)
+            cols.append(c)
+            vals.append(v)
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+
+
+def facet_forces(mesh, group_name, where):
+    """Nodal weights w_a = integral of N_a over the group's facets: [n_nodes]."""
+    group = mesh.group(group_name, where)
+    w = np.zeros(len(mesh.points))
+    for fam, conn in group.cells.items():
+        X = mesh.points[conn]
+        if fam == "line2":
+            size = np.linalg.norm(X[:, 1] - X[:, 0], axis=1)
+        elif fam == "tri3":
+            size = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+        elif fam == "quad4":
+            size = 0.5 * (np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 3] - X[:, 0]), axis=1) +
+                          np.linalg.norm(np.cross(X[:, 1] - X[:, 2], X[:, 3] - X[:, 2]), axis=1))
+        else:
+            continue
+        w += np.bincount(conn.ravel(), weights=np.repeat(size / conn.shape[1], conn.shape[1]),
+                         minlength=len(w))
+    return w
+
+
+def build(scene) -> ContinuumArrays:
+    spec = scene.model
+    mesh = spec.mesh_data
+    dim = mesh.dim
+    mat = spec.material.elastic()
+    cells, mass = [], np.zeros(len(mesh.points))
+    for fam, conn, Ke, me in group_matrices(mesh, spec.body, mat, "model.body"):
+        cells.append((fam, conn, Ke))
+        mass += nodal(me, conn, len(mesh.points))
+    fixed = np.zeros(len(mesh.points) * dim, bool)
+    for name in spec.fixed:
+        nodes = mesh.group(name, "model.fixed").nodes
+        fixed[(nodes[:, None] * dim + np.arange(dim)).ravel()] = True
+    loads = []
+    for i, load in enumerate(scene.loads):
+        g = load_function(load)
+        direction = np.asarray(load.direction or [1.0] + [0.0] * (dim - 1), dtype=float)
+        if load.group is not None:
+            w = facet_forces(mesh, load.group, f"loads[{i}].group")
+            for node in np.flatnonzero(w):
+                for c in range(dim):
+                    if direction[c]:
+                        loads.append(PointLoad(int(node) * dim + c, g, float(w[node] * direction[c])))
+        else:
+            loads.append(PointLoad(load.node * dim + load.component, g))
+    n = len(mesh.points) * dim
+    return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n), np.zeros(n))
