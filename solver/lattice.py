@@ -1,0 +1,88 @@
+"""Bonded DEM lattice: particles on a square lattice with diagonal bonds (2D).
+
+Calibration (central linear bonds, spacing a, thickness t): every lattice cell
+contributes k1/2 to each of its four edge bonds and k2 to each of its two
+diagonals, and a quarter of rho t a^2 to each corner particle.  The cell energy
+gives C11 = (k1 + k2)/t, C12 = C66 = k2/t (plane stress), so the lattice is
+isotropic for k1 = 2 k2, with
+
+    plane stress:  nu = 1/3,  E = 8 k2 / (3 t),  so k2 = 3 E t / 8
+    plane strain:  nu = 1/4 (in-plane nu' = nu / (1 - nu) = 1/3), and with
+                   E' = E / (1 - nu^2) per unit thickness, k2 = 3 E' / 8
+
+A central-force lattice cannot represent other Poisson ratios (Cauchy
+relation): ``calibrate`` refuses |nu - nu_lattice| > NU_TOLERANCE and reports
+the difference otherwise.  Boundary particles and bonds get the shares of the
+cells that exist, so masses and stiffness match bilinear quadrilaterals of the
+same grid at the surface.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+NU_TOLERANCE = 0.02
+
+
+@dataclass(frozen=True)
+class Lattice:
+    points: np.ndarray       # [n, 2]
+    bond_i: np.ndarray
+    bond_j: np.ndarray
+    stiffness: np.ndarray    # k per bond [N/m]
+    mass: np.ndarray         # [n]
+    spacing: float
+
+
+def calibrate(E: float, nu: float, thickness: float, kind: str) -> tuple[float, float, float]:
+    """(k1, k2, lattice nu) for the square lattice with diagonals."""
+    if kind == "plane_stress":
+        nu_lat, k2 = 1 / 3, 3 * E * thickness / 8
+    elif kind == "plane_strain":
+        nu_lat, k2 = 1 / 4, 3 * (E / (1 - nu ** 2)) / 8
+    else:
+        raise ValueError("3D lattices are not implemented; use a 2D (plane) material")
+    if abs(nu - nu_lat) > NU_TOLERANCE:
+        raise ValueError(f"a square lattice with diagonal bonds represents nu = {nu_lat:.3g} in "
+                         f"{kind}; the material has nu = {nu:g} (allowed within {NU_TOLERANCE})")
+    return 2 * k2, k2, nu_lat
+
+
+def square(origin, shape, spacing: float, E: float, nu: float, rho: float, thickness: float,
+           kind: str = "plane_stress") -> Lattice:
+    """Lattice of shape (nx, ny) particles from ``origin`` with ``spacing``."""
+    nx, ny = shape
+    k1, k2, _ = calibrate(E, nu, thickness, kind)
+    t = thickness if kind == "plane_stress" else 1.0
+    ix, iy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    points = np.asarray(origin, float) + spacing * np.stack([ix.ravel(), iy.ravel()], axis=1)
+    idx = np.arange(nx * ny).reshape(nx, ny)
+    c00, c10, c01, c11 = idx[:-1, :-1], idx[1:, :-1], idx[:-1, 1:], idx[1:, 1:]
+    cells = [(c00, c10, k1 / 2), (c01, c11, k1 / 2), (c00, c01, k1 / 2), (c10, c11, k1 / 2),
+             (c00, c11, k2), (c10, c01, k2)]
+    bi = np.concatenate([a.ravel() for a, _, _ in cells])
+    bj = np.concatenate([b.ravel() for _, b, _ in cells])
+    bk = np.concatenate([np.full(a.size, k) for a, _, k in cells])
+    key = np.minimum(bi, bj) * (nx * ny) + np.maximum(bi, bj)      # merge shared edges
+    uniq, inv = np.unique(key, return_inverse=True)
+    k = np.bincount(inv, weights=bk)
+    mass = np.zeros(nx * ny)
+    for corner in (c00, c10, c01, c11):
+        np.add.at(mass, corner.ravel(), rho * t * spacing ** 2 / 4)
+    return Lattice(points, uniq // (nx * ny), uniq % (nx * ny), k, mass, spacing)
+
+
+def bond_triplets(points, bi, bj, k, dim=2):
+    """COO stiffness of linearised central bonds: k n n^T blocks [[1, -1], [-1, 1]]."""
+    n = points[bj] - points[bi]
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    block = k[:, None, None] * np.einsum("bi,bj->bij", n, n)            # [nb, dim, dim]
+    rows, cols, vals = [], [], []
+    for a, b, sign in ((bi, bi, 1.0), (bj, bj, 1.0), (bi, bj, -1.0), (bj, bi, -1.0)):
+        r = (a[:, None, None] * dim + np.arange(dim)[None, :, None]).repeat(dim, axis=2)
+        c = (b[:, None, None] * dim + np.arange(dim)[None, None, :]).repeat(dim, axis=1)
+        rows.append(r.ravel())
+        cols.append(c.ravel())
+        vals.append(sign * block.ravel())
+    return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
