@@ -28,6 +28,7 @@ class ContinuumArrays:
     loads: tuple
     u0: np.ndarray
     v0: np.ndarray
+    bonds: tuple = ()            # (i, j, k) lattice bonds on mesh nodes, for dem partitions
 
     @property
     def n_nodes(self) -> int:
@@ -37,6 +38,20 @@ class ContinuumArrays:
     def n_dofs(self) -> int:
         return self.n_nodes * self.dof
 
+    def bond_triplets(self, held: np.ndarray):
+        """COO stiffness of the lattice bonds whose ends are both held (local DOFs)."""
+        from .lattice import bond_triplets
+        if not self.bonds:
+            return (np.zeros(0, np.int64),) * 2 + (np.zeros(0),)
+        bi, bj, k = self.bonds
+        local = np.full(self.n_nodes, -1, dtype=np.int64)
+        local[held] = np.arange(held.size)
+        li, lj = local[bi], local[bj]
+        keep = (li >= 0) & (lj >= 0)
+        pts = np.zeros((held.size, self.dof))
+        pts[:] = self.points[held]
+        return bond_triplets(pts, li[keep], lj[keep], k[keep], self.dof)
+
     def neighbours(self) -> list[np.ndarray]:
         pairs = []
         for _, conn, _ in self.cells:
@@ -44,6 +59,9 @@ class ContinuumArrays:
             a = np.repeat(conn, k, axis=1).ravel()
             b = np.tile(conn, (1, k)).ravel()
             pairs.append(np.stack([a, b])[:, a != b])
+        if self.bonds:
+            bi, bj, _ = self.bonds
+            pairs.append(np.stack([np.concatenate([bi, bj]), np.concatenate([bj, bi])]))
         a, b = np.unique(np.concatenate(pairs, axis=1), axis=1)
         cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
         return [b[cuts[n]:cuts[n + 1]] for n in range(self.n_nodes)]
@@ -84,6 +102,56 @@ def facet_forces(mesh, group_name, where):
     return w
 
 
+def attach_lattice(scene, mesh, mass):
+    """Bonds and particle masses of the scene's lattice on the mesh nodes that
+    coincide with its sites: (bonds, mass with particle masses for dem-owned nodes)."""
+    from .errors import SceneError
+    from .lattice import square
+    spec, mat = scene.model.lattice, scene.model.material
+    region = mesh.group(spec.region, "model.lattice.region")
+    pts = mesh.points
+    a = spec.spacing
+    # the lattice reaches as many spacings beyond the region as a dem partition has
+    # external layers, so that its external particles carry their bonds
+    layers = max([scene.system_ratio // p.ratio if scene.coupling.external == "layers" else 1
+                  for p in scene.partitions if p.method == "dem"] or [1])
+    lo = pts[region.nodes].min(axis=0) - layers * a
+    hi = pts[region.nodes].max(axis=0) + layers * a
+    lo, hi = np.maximum(lo, pts.min(axis=0)), np.minimum(hi, pts.max(axis=0))
+    shape = np.rint((hi - lo) / a).astype(int) + 1
+    try:
+        lat = square(lo, shape, a, mat.E, mat.nu, mat.rho, mat.thickness, mat.kind)
+    except ValueError as e:
+        raise SceneError(f"model.lattice: {e}") from None
+    # pair every lattice site with the mesh node at the same place
+    cell = np.rint((pts - lo) / a).astype(np.int64)
+    on_grid = np.all(np.abs(pts - (lo + cell * a)) <= 1e-3 * a, axis=1) & \
+        np.all((cell >= 0) & (cell < shape), axis=1)
+    site_of = np.full(int(np.prod(shape)), -1, dtype=np.int64)
+    site_of[cell[on_grid, 0] * shape[1] + cell[on_grid, 1]] = np.flatnonzero(on_grid)
+    missing = np.flatnonzero(site_of < 0)
+    if missing.size:
+        where = ", ".join(f"({x:.6g}, {y:.6g})" for x, y in lat.points[missing[:5]])
+        raise SceneError(f"model.lattice: {missing.size} lattice sites have no mesh node within "
+                         f"{1e-3 * a:.3g} m (the mesh must coincide with the lattice one spacing "
+                         f"around region {spec.region!r}): {where}{' ...' if missing.size > 5 else ''}")
+    bi, bj = site_of[lat.bond_i], site_of[lat.bond_j]
+    particle_mass = np.zeros(len(pts))
+    particle_mass[site_of] = lat.mass
+    dem_nodes = [np.asarray(nodes, dtype=np.int64) for part, nodes in
+                 zip(scene.partitions, scene.owned_nodes()) if part.method == "dem"]
+    mass = mass.copy()
+    if dem_nodes:
+        dem = np.concatenate(dem_nodes)
+        outside = dem[particle_mass[dem] == 0]
+        if outside.size:
+            raise SceneError(f"model.lattice: dem partition nodes {outside[:5].tolist()} are not "
+                             f"lattice sites of region {spec.region!r}")
+        # a particle carries the mass of the lattice cells it stands in
+        mass[dem] = particle_mass[dem]
+    return (bi, bj, lat.stiffness), mass
+
+
 def build(scene) -> ContinuumArrays:
     spec = scene.model
     mesh = spec.mesh_data
@@ -110,4 +178,8 @@ def build(scene) -> ContinuumArrays:
         else:
             loads.append(PointLoad(load.node * dim + load.component, g))
     n = len(mesh.points) * dim
-    return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n), np.zeros(n))
+    bonds = ()
+    if spec.lattice is not None:
+        bonds, mass = attach_lattice(scene, mesh, mass)
+    return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
+                           np.zeros(n), bonds)

@@ -44,12 +44,23 @@ class Mesh:
         return self.groups[name]
 
 
-def _read_gmsh(path: str, dim: int | None) -> Mesh:
+def _read_gmsh(path: str, dim: int | None, parameters: dict) -> Mesh:
     import gmsh
     gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.open(path)
+        if parameters and path.endswith(".geo"):
+            # gmsh.open resets the parser: prepend the definitions to a copy
+            import tempfile
+            head = "".join(f"{k} = {float(v)!r};\n" for k, v in parameters.items())
+            with tempfile.NamedTemporaryFile("w", suffix=".geo", delete=False) as tmp:
+                tmp.write(head + Path(path).read_text())
+            try:
+                gmsh.open(tmp.name)
+            finally:
+                Path(tmp.name).unlink()
+        else:
+            gmsh.open(path)
         if path.endswith(".geo"):
             gmsh.model.mesh.generate(dim or gmsh.model.getDimension())
         top = dim or gmsh.model.getDimension()
@@ -79,14 +90,15 @@ def _read_gmsh(path: str, dim: int | None) -> Mesh:
         gmsh.finalize()
 
 
-def read(path: str, comm=None, dim: int | None = None) -> Mesh:
-    """Mesh ``path`` (.geo or .msh) on rank 0 of ``comm`` and broadcast it."""
+def read(path: str, comm=None, dim: int | None = None, parameters: dict | None = None) -> Mesh:
+    """Mesh ``path`` (.geo or .msh) on rank 0 of ``comm`` and broadcast it;
+    ``parameters`` define .geo numbers before it is read."""
     if not Path(path).is_file():
         raise SceneError(f"{path}: mesh file not found")
     mesh, error = None, None
     if comm is None or comm.rank == 0:
         try:
-            mesh = _read_gmsh(str(path), dim)
+            mesh = _read_gmsh(str(path), dim, parameters or {})
         except SceneError as e:
             error = str(e)
         except Exception as e:                                 # gmsh reports parse errors so

@@ -74,6 +74,10 @@ class Model:
         keep = (li != -2) & (lj != -2)
         return li[keep], lj[keep], self.spring_k[keep]
 
+    def bond_triplets(self, held: np.ndarray):
+        """COO stiffness of the springs a dem partition holding ``held`` applies."""
+        return spring_triplets(*self.springs_within(held))
+
     def stiffness_triplets(self, held: np.ndarray):
         """COO (rows, cols, values) of the stiffness over the held nodes."""
         li, lj, k = self.springs_within(held)

@@ -184,6 +184,15 @@ class Material:
 
 
 @dataclass(frozen=True)
+class LatticeSpec:
+    region: str = key("physical group (cells) filled with the bonded lattice")
+    spacing: float = key("lattice spacing a [m]; the mesh must have a node at every lattice site "
+                         "of the region and one spacing around it", positive=True)
+    kind: Literal["square"] = key("square: square lattice with diagonal bonds (2D; nu = 1/3 "
+                                  "plane stress, 1/4 plane strain)", "square")
+
+
+@dataclass(frozen=True)
 class ContinuumModel:
     """An elastic body meshed with gmsh; nodes carry dim DOFs."""
 
@@ -192,11 +201,13 @@ class ContinuumModel:
     material: Material = key("linear elastic material")
     body: str = key("physical group of the body's cells", "solid")
     fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())
+    lattice: LatticeSpec | None = key("bonded DEM lattice for dem partitions", None)
+    mesh_parameters: dict[str, float] = key("numbers defined before the .geo is read (the .geo "
+                                            "keeps its default with If (!Exists(a)) ...), "
+                                            "e.g. {a: 4.0e-4}", {})
 
     def validate(self, path):
-        if self.mesh.endswith(".geo") or self.mesh.endswith(".msh"):
-            pass
-        else:
+        if not self.mesh.endswith((".geo", ".msh")):
             fail(f"{path}.mesh", f"{self.mesh}: expected a .geo or .msh file")
         try:
             m = self.mesh_data
@@ -205,6 +216,10 @@ class ContinuumModel:
         m.group(self.body, f"{path}.body")
         for name in self.fixed:
             m.group(name, f"{path}.fixed")
+        if self.lattice is not None:
+            m.group(self.lattice.region, f"{path}.lattice.region")
+            if m.dim != 2:
+                fail(f"{path}.lattice", "lattices are 2D for now (square with diagonal bonds)")
         wants = "solid" if m.dim == 3 else ("plane_stress", "plane_strain")
         if (m.dim == 3) != (self.material.kind == "solid"):
             fail(f"{path}.material.kind", f"{self.material.kind} does not fit a {m.dim}D mesh "
@@ -213,7 +228,7 @@ class ContinuumModel:
     @cached_property
     def mesh_data(self):
         from .mesh import read
-        return read(self.mesh)
+        return read(self.mesh, parameters=self.mesh_parameters)
 
     @property
     def n_nodes(self) -> int:
@@ -454,9 +469,9 @@ class Scene:
         if not self.partitions:
             fail("partitions", "at least one partition is needed")
         for p, part in enumerate(self.partitions):
-            if continuum and part.method != "fem":
-                fail(f"partitions[{p}].method", "continuum models take fem partitions (bonded "
-                     "lattices for dem partitions are not there yet)")
+            if continuum and part.method == "dem" and self.model.lattice is None:
+                fail(f"partitions[{p}].method", "a dem partition on a continuum model needs "
+                     "model.lattice")
             if part.group is not None and not continuum:
                 fail(f"partitions[{p}].group", "groups name mesh regions: continuum models only")
             if part.group is not None:

@@ -71,3 +71,56 @@ def test_continuum_errors(tmp_path):
         proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
         assert proc.returncode == 2, (path, proc.stderr)
         assert message in proc.stderr, proc.stderr
+
+
+COARSE = {"a": 4e-4}
+
+
+def coupled_bar(**over):
+    raw = raw_scene("wave_bar")
+    raw["model"]["mesh_parameters"] = dict(COARSE)
+    raw["model"]["lattice"]["spacing"] = COARSE["a"]
+    raw["time"]["dt"] = 4e-8
+    for path, value in over.items():
+        node = raw
+        *head, last = path.split("__")
+        for key in head:
+            node = node[key] if not key.isdigit() else node[int(key)]
+        node[last] = value
+    return raw
+
+
+@pytest.mark.parametrize("integrator,eta,scheme", [("explicit", 1, "overlap"),
+                                                   ("implicit", 2, "staggered")])
+def test_coupled_wave_bar_matches_the_1d_wave(integrator, eta, scheme, tmp_path):
+    raw = coupled_bar(partitions__0__integrator=integrator, partitions__0__ratio=eta,
+                      coupling__scheme=scheme)
+    res = run_scene(raw, tmp_path)
+    assert res.probes["B"]["attrs"]["partition"] == "dem"
+    assert res.partitions["dem"]["n_owned"] > 0
+    assert res.partitions["dem"]["steps"] == int(7.5e-5 / (eta * 4e-8) + 1e-9) * eta
+    for name, x in (("A", 0.078), ("B", 0.160), ("C", 0.242)):
+        pr = res.probes[name]
+        arrival, peak = half_rise(pr["t"], pr["velocity"])
+        assert abs((arrival - T / 6) / (x / C) - 1) < 0.01, name
+        assert abs(peak / V0 - 1) < 0.05, name
+    t, v = res.probes["A"]["t"], res.probes["A"]["velocity"]
+    incident = (t >= 10e-6) & (t <= 32e-6)
+    after = (t > 32e-6) & (t <= 77e-6)      # left-going waves before the free-end echo
+    reflected = np.trapezoid(v[after] ** 2, t[after]) / np.trapezoid(v[incident] ** 2, t[incident])
+    assert reflected < 0.01
+
+
+def test_lattice_must_coincide_with_the_mesh(tmp_path):
+    raw = coupled_bar(model__lattice__spacing=6e-4)
+    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
+    assert proc.returncode == 2
+    line, = proc.stderr.strip().splitlines()
+    assert "model.lattice:" in line and "have no mesh node within" in line and "(0.1574" in line
+
+
+def test_lattice_poisson_ratio_is_checked(tmp_path):
+    raw = coupled_bar(model__material__nu=0.2)
+    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
+    assert proc.returncode == 2
+    assert "model.lattice: a square lattice with diagonal bonds represents nu = 0.333" in proc.stderr
