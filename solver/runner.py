@@ -179,7 +179,17 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
              else max(1, n_sys // 2000))
     guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound)
 
-    failure, done, loop_wall = step_loop(scene, scheme, probes, guard, say if rank == 0 else None)
+    fields = None
+    if scene.output and scene.output.fields:
+        from .fields import FieldWriter
+        fields = FieldWriter(scene, mdl, parts, comm)
+        fields.write(0.0)
+    try:
+        failure, done, loop_wall = step_loop(scene, scheme, probes, guard,
+                                             say if rank == 0 else None, fields)
+    finally:
+        if fields:
+            fields.close()
 
     # ---- gather results on every rank (small: probes and attributes)
     x_wall = scheme.clocks.exchange_wall
@@ -221,7 +231,7 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     return result
 
 
-def step_loop(scene, scheme, probes, guard, say):
+def step_loop(scene, scheme, probes, guard, say, fields=None):
     """Advance system steps to the end or the first guard failure.
 
     Returns (failure message or None, system steps done, stepping wall time)."""
@@ -235,6 +245,8 @@ def step_loop(scene, scheme, probes, guard, say):
         scheme.step(s * Dt)
         k = s + 1
         probes.record(k)
+        if fields and k % fields.every == 0:
+            fields.write(k * Dt)
         if k % every == 0 or k == n_sys:
             failure = guard.check(k)
             if failure:

@@ -385,8 +385,16 @@ class MonolithicReference:
 
 
 @dataclass(frozen=True)
+class Fields:
+    every: int = key("system steps between field snapshots", positive=True)
+
+
+@dataclass(frozen=True)
 class Output:
     file: str = key("HDF5 output path, relative to the working directory")
+    fields: Fields | None = key("continuum models: XDMF time series of the mesh fields "
+                                "(<file stem>_fields.xdmf) and the DEM particles (<stem>_particles.xdmf) "
+                                "for ParaView", None)
     energy_every: int | None = key(
         "system steps between energy samples and blow-up checks (default: ~2000 samples per run)",
         None, positive=True)
@@ -522,6 +530,8 @@ class Scene:
             if probe.name in seen:
                 fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
             seen.add(probe.name)
+        if self.output and self.output.fields and not continuum:
+            fail("output.fields", "field output is for continuum models")
         if continuum and self.reference == "modal":
             fail("reference", "modal references are for network models")
         if continuum and self.initial != Initial():

@@ -3,7 +3,7 @@ coupled continuum partitions, 1 vs 2 ranks, and scene errors."""
 import numpy as np
 import pytest
 
-from conftest import raw_scene, run_cli, run_scene, write_scene
+from conftest import ROOT, raw_scene, run_cli, run_scene, write_scene
 
 E, RHO, THICK, Q, T = 70e9, 2700.0, 3.2e-4, 1.0e4, 1.5e-5
 C = np.sqrt(E / RHO)
@@ -124,3 +124,34 @@ def test_lattice_poisson_ratio_is_checked(tmp_path):
     proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
     assert proc.returncode == 2
     assert "model.lattice: a square lattice with diagonal bonds represents nu = 0.333" in proc.stderr
+
+
+def test_fields_for_paraview_read_back_with_meshio(tmp_path):
+    from meshio.xdmf import TimeSeriesReader
+    raw = coupled_bar()
+    raw["time"]["end"] = 3.0e-5
+    raw["output"] = {"file": str(tmp_path / "wb.h5"), "fields": {"every": 125}}
+    raw["model"]["mesh"] = str(ROOT / raw["model"]["mesh"])
+    elsewhere = tmp_path / "cwd"
+    elsewhere.mkdir()
+    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)], cwd=elsewhere)
+    assert proc.returncode == 0, proc.stderr
+    assert list(elsewhere.iterdir()) == []               # nothing lands in the working directory
+    assert sorted(p.name for p in tmp_path.iterdir() if p.suffix in (".h5", ".xdmf")) == [
+        "wb.h5", "wb_fields.h5", "wb_fields.xdmf", "wb_particles.h5", "wb_particles.xdmf"]
+    mesh = TimeSeriesReader(str(tmp_path / "wb_fields.xdmf"))
+    points, cells = mesh.read_points_cells()
+    parts = TimeSeriesReader(str(tmp_path / "wb_particles.xdmf"))
+    ppoints, _ = parts.read_points_cells()
+    assert cells[0].type == "quad" and mesh.num_steps == parts.num_steps == 7
+    # every particle sits on a mesh node: same place, same motion (one time axis)
+    node = np.array([np.argmin(np.linalg.norm(points - p, axis=1)) for p in ppoints])
+    assert np.allclose(points[node], ppoints)
+    peak = 0.0
+    for k in range(mesh.num_steps):
+        t, pd, cd = mesh.read_data(k)
+        tp, ppd, _ = parts.read_data(k)
+        assert t == tp
+        assert np.array_equal(pd["velocity"][node], ppd["velocity"])
+        peak = max(peak, -cd["stress"][0][:, 0].min())
+    assert abs(peak / (Q / THICK) - 1) < 0.05                # compressive pulse q / thickness
