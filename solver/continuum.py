@@ -29,6 +29,7 @@ class ContinuumArrays:
     u0: np.ndarray
     v0: np.ndarray
     bonds: tuple = ()            # (i, j, k) lattice bonds on mesh nodes, for dem partitions
+    overlap_cells: list = ()     # (family, conn, Ke) of mesh cells both sides share
 
     @property
     def n_nodes(self) -> int:
@@ -50,7 +51,24 @@ class ContinuumArrays:
         keep = (li >= 0) & (lj >= 0)
         pts = np.zeros((held.size, self.dof))
         pts[:] = self.points[held]
-        return bond_triplets(pts, li[keep], lj[keep], k[keep], self.dof)
+        r, c, v = bond_triplets(pts, li[keep], lj[keep], k[keep], self.dof)
+        # the overlap cells are the same elements in both partitions (as the
+        # overlap spring of a 1D chain): symmetric interface forces
+        r2, c2, v2 = self._cell_triplets(self.overlap_cells, held)
+        return np.concatenate([r, r2]), np.concatenate([c, c2]), np.concatenate([v, v2])
+
+    def _cell_triplets(self, cells, held):
+        local = np.full(self.n_nodes, -1, dtype=np.int64)
+        local[held] = np.arange(held.size)
+        rows, cols, vals = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
+        for _, conn, Ke in cells:
+            lc = local[conn]
+            keep = np.all(lc >= 0, axis=1)
+            r, c, v = stiffness_triplets(Ke[keep], lc[keep], self.dof)
+            rows.append(r)
+            cols.append(c)
+            vals.append(v)
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
 
     def neighbours(self) -> list[np.ndarray]:
         pairs = []
@@ -69,17 +87,7 @@ class ContinuumArrays:
     def stiffness_triplets(self, held: np.ndarray):
         """COO stiffness over the held nodes (local DOF numbering) from the cells
         whose nodes are all held."""
-        local = np.full(self.n_nodes, -1, dtype=np.int64)
-        local[held] = np.arange(held.size)
-        rows, cols, vals = [], [], []
-        for _, conn, Ke in self.cells:
-            lc = local[conn]
-            keep = np.all(lc >= 0, axis=1)
-            r, c, v = stiffness_triplets(Ke[keep], lc[keep], self.dof)
-            rows.append(r)
-            cols.append(c)
-            vals.append(v)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+        return self._cell_triplets(self.cells, held)
 
 
 def facet_forces(mesh, group_name, where):
@@ -102,11 +110,12 @@ def facet_forces(mesh, group_name, where):
     return w
 
 
-def attach_lattice(scene, mesh, mass):
-    """Bonds and particle masses of the scene's lattice on the mesh nodes that
-    coincide with its sites: (bonds, mass with particle masses for dem-owned nodes)."""
+def attach_lattice(scene, mesh, mass, cells):
+    """Bonds, overlap cells and particle masses of the scene's lattice on the mesh
+    nodes that coincide with its sites: (bonds, overlap cells, mass with particle
+    masses for dem-owned nodes)."""
     from .errors import SceneError
-    from .lattice import square
+    from .lattice import merge, square
     spec, mat = scene.model.lattice, scene.model.material
     region = mesh.group(spec.region, "model.lattice.region")
     pts = mesh.points
@@ -135,11 +144,32 @@ def attach_lattice(scene, mesh, mass):
         raise SceneError(f"model.lattice: {missing.size} lattice sites have no mesh node within "
                          f"{1e-3 * a:.3g} m (the mesh must coincide with the lattice one spacing "
                          f"around region {spec.region!r}): {where}{' ...' if missing.size > 5 else ''}")
-    bi, bj = site_of[lat.bond_i], site_of[lat.bond_j]
     particle_mass = np.zeros(len(pts))
     particle_mass[site_of] = lat.mass
     dem_nodes = [np.asarray(nodes, dtype=np.int64) for part, nodes in
                  zip(scene.partitions, scene.owned_nodes()) if part.method == "dem"]
+    is_dem = np.zeros(len(pts), bool)
+    if dem_nodes:
+        is_dem[np.concatenate(dem_nodes)] = True
+    # lattice cells with corners of both sides are overlap cells: both partitions
+    # use the mesh cell there; the bonds come from the other lattice cells
+    corners = site_of[lat.corners]
+    n_dem = is_dem[corners].sum(axis=1)
+    mixed = (n_dem > 0) & (n_dem < 4)
+    ci, cj, ck, cell = lat.cell_bonds
+    keep = ~mixed[cell]
+    bi, bj, bk = merge(site_of[ci[keep]], site_of[cj[keep]], ck[keep], len(pts))
+    overlap = []
+    if mixed.any():
+        wanted = {tuple(sorted(c)): n for n, c in enumerate(corners[mixed].tolist())}
+        for fam, conn, Ke in cells:
+            hit = np.array([tuple(sorted(c)) in wanted for c in conn.tolist()])
+            if hit.any():
+                overlap.append((fam, conn[hit], Ke[hit]))
+        found = sum(len(c) for _, c, _ in overlap)
+        if found != mixed.sum():
+            raise SceneError(f"model.lattice: {mixed.sum() - found} overlap cells of the lattice "
+                             "have no mesh cell with the same corners")
     mass = mass.copy()
     if dem_nodes:
         dem = np.concatenate(dem_nodes)
@@ -149,7 +179,7 @@ def attach_lattice(scene, mesh, mass):
                              f"lattice sites of region {spec.region!r}")
         # a particle carries the mass of the lattice cells it stands in
         mass[dem] = particle_mass[dem]
-    return (bi, bj, lat.stiffness), mass
+    return (bi, bj, bk), overlap, mass
 
 
 def build(scene) -> ContinuumArrays:
@@ -178,8 +208,8 @@ def build(scene) -> ContinuumArrays:
         else:
             loads.append(PointLoad(load.node * dim + load.component, g))
     n = len(mesh.points) * dim
-    bonds = ()
+    bonds, overlap = (), ()
     if spec.lattice is not None:
-        bonds, mass = attach_lattice(scene, mesh, mass)
+        bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells)
     return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
-                           np.zeros(n), bonds)
+                           np.zeros(n), bonds, overlap)

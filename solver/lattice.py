@@ -28,11 +28,20 @@ NU_TOLERANCE = 0.02
 @dataclass(frozen=True)
 class Lattice:
     points: np.ndarray       # [n, 2]
-    bond_i: np.ndarray
+    bond_i: np.ndarray       # bonds merged over all cells
     bond_j: np.ndarray
     stiffness: np.ndarray    # k per bond [N/m]
     mass: np.ndarray         # [n]
     spacing: float
+    corners: np.ndarray      # [n_cells, 4] particles of each lattice cell
+    cell_bonds: tuple        # (i, j, k, cell) per-cell contributions, before merging
+
+
+def merge(i, j, k, n):
+    """Sum the contributions of the same bond: (i, j, k) with i < j."""
+    key = np.minimum(i, j) * n + np.maximum(i, j)
+    uniq, inv = np.unique(key, return_inverse=True)
+    return uniq // n, uniq % n, np.bincount(inv, weights=k)
 
 
 def calibrate(E: float, nu: float, thickness: float, kind: str) -> tuple[float, float, float]:
@@ -61,16 +70,17 @@ def square(origin, shape, spacing: float, E: float, nu: float, rho: float, thick
     c00, c10, c01, c11 = idx[:-1, :-1], idx[1:, :-1], idx[:-1, 1:], idx[1:, 1:]
     cells = [(c00, c10, k1 / 2), (c01, c11, k1 / 2), (c00, c01, k1 / 2), (c10, c11, k1 / 2),
              (c00, c11, k2), (c10, c01, k2)]
+    cell_id = np.arange(c00.size)
     bi = np.concatenate([a.ravel() for a, _, _ in cells])
     bj = np.concatenate([b.ravel() for _, b, _ in cells])
     bk = np.concatenate([np.full(a.size, k) for a, _, k in cells])
-    key = np.minimum(bi, bj) * (nx * ny) + np.maximum(bi, bj)      # merge shared edges
-    uniq, inv = np.unique(key, return_inverse=True)
-    k = np.bincount(inv, weights=bk)
+    bc = np.tile(cell_id, len(cells))
     mass = np.zeros(nx * ny)
     for corner in (c00, c10, c01, c11):
         np.add.at(mass, corner.ravel(), rho * t * spacing ** 2 / 4)
-    return Lattice(points, uniq // (nx * ny), uniq % (nx * ny), k, mass, spacing)
+    corners = np.stack([c00.ravel(), c10.ravel(), c11.ravel(), c01.ravel()], axis=1)
+    mi, mj, mk = merge(bi, bj, bk, nx * ny)
+    return Lattice(points, mi, mj, mk, mass, spacing, corners, (bi, bj, bk, bc))
 
 
 def bond_triplets(points, bi, bj, k, dim=2):
