@@ -22,7 +22,7 @@ log() { echo "[run.sh] $*" >&2; }
 
 ensure_system() {
   # System MPI (MPICH) and BLAS/LAPACK; compilers are needed to build PETSc.
-  if command -v mpichversion >/dev/null 2>&1 && [ -e /usr/include/x86_64-linux-gnu/openblas-pthread/cblas.h -o -e /usr/lib/x86_64-linux-gnu/libopenblas.so ]; then
+  if command -v mpicc.mpich >/dev/null 2>&1 && [ -e /usr/lib/x86_64-linux-gnu/libopenblas.so ]; then
     return
   fi
   if [ "$(id -u)" != 0 ]; then
@@ -65,7 +65,7 @@ ensure_python() {
     if ! petsc_ok "$PY"; then
       # PETSc against Debian's MPICH and OpenBLAS, optimised, no downloads.
       export PETSC_CONFIGURE_OPTIONS="--with-debugging=0 --with-blaslapack-lib=-lopenblas --with-fc=0 --with-x=0 COPTFLAGS=-O2 CXXOPTFLAGS=-O2"
-      MPICC=mpicc MPICXX=mpicxx "$PY" -m pip install -q --no-binary mpi4py,petsc,petsc4py \
+      MPICC=mpicc.mpich MPICXX=mpicxx.mpich "$PY" -m pip install -q --no-binary mpi4py,petsc,petsc4py \
         -r requirements-petsc.txt
     fi
     "$PY" -m pip install -q -r requirements.txt
@@ -76,9 +76,14 @@ ensure_python() {
 }
 
 mpiexec_for() {
-  # The mpiexec that matches the MPI mpi4py was built against.
-  "$PY" -c 'import mpi4py, os; print(os.path.dirname(mpi4py.get_config().get("mpicc","/usr/bin/mpicc")))' 2>/dev/null \
-    | { read -r d; if [ -x "$d/mpiexec" ]; then echo "$d/mpiexec"; else command -v mpiexec.mpich || command -v mpiexec; fi; }
+  # The launcher of the MPI library mpi4py actually uses, whatever the system's
+  # mpiexec alternative points to (installing an OpenMPI-based package switches it).
+  local lib; lib="$("$PY" -c 'from mpi4py import MPI; print(MPI.Get_library_version())' 2>/dev/null)"
+  case "$lib" in
+    *MPICH*) command -v mpiexec.mpich || command -v mpiexec.hydra || command -v mpiexec ;;
+    *"Open MPI"*) command -v mpiexec.openmpi || command -v mpiexec ;;
+    *) command -v mpiexec ;;
+  esac
 }
 
 ensure_python

@@ -83,6 +83,18 @@ def square(origin, shape, spacing: float, E: float, nu: float, rho: float, thick
     return Lattice(points, mi, mj, mk, mass, spacing, corners, (bi, bj, bk, bc))
 
 
+def simple_cubic(n: int, spacing: float = 1.0, k: float = 1.0, mass: float = 1.0):
+    """n^3 particles on a simple cubic lattice with axis bonds (3 per particle
+    away from the faces): (points [n^3, 3], bond_i, bond_j, stiffness, masses)."""
+    idx = np.arange(n ** 3).reshape(n, n, n)
+    g = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    pairs = [(idx[:-1].ravel(), idx[1:].ravel()), (idx[:, :-1].ravel(), idx[:, 1:].ravel()),
+             (idx[:, :, :-1].ravel(), idx[:, :, 1:].ravel())]
+    bi = np.concatenate([a for a, _ in pairs])
+    bj = np.concatenate([b for _, b in pairs])
+    return spacing * g.astype(float), bi, bj, np.full(bi.size, k), np.full(n ** 3, mass)
+
+
 def bond_triplets(points, bi, bj, k, dim=2):
     """COO stiffness of linearised central bonds: k n n^T blocks [[1, -1], [-1, 1]]."""
     n = points[bj] - points[bi]
@@ -95,4 +107,6 @@ def bond_triplets(points, bi, bj, k, dim=2):
         rows.append(r.ravel())
         cols.append(c.ravel())
         vals.append(sign * block.ravel())
-    return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+    rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+    nz = vals != 0.0                      # axis-aligned bonds leave structural zeros
+    return rows[nz], cols[nz], vals[nz]
