@@ -1,4 +1,5 @@
-"""Bonded DEM lattice: particles on a square lattice with diagonal bonds (2D).
+"""Bonded DEM lattices: a square lattice with diagonal bonds (2D) and a simple
+cubic lattice with face-diagonal bonds (3D).
 
 Calibration (central linear bonds, spacing a, thickness t): every lattice cell
 contributes k1/2 to each of its four edge bonds and k2 to each of its two
@@ -9,6 +10,11 @@ isotropic for k1 = 2 k2, with
     plane stress:  nu = 1/3,  E = 8 k2 / (3 t),  so k2 = 3 E t / 8
     plane strain:  nu = 1/4 (in-plane nu' = nu / (1 - nu) = 1/3), and with
                    E' = E / (1 - nu^2) per unit thickness, k2 = 3 E' / 8
+
+3D (simple cubic with face diagonals): every cube cell contributes k/4 to each
+of its 12 edges and k/2 to each of its 12 face diagonals, and rho a^3 / 8 to
+each corner; C11 = (k_e + 2 k_d)/a, C12 = C44 = k_d/a, isotropic for
+k_e = k_d = k, with nu = 1/4 and E = 2.5 k / a, so k = 0.4 E a.
 
 A central-force lattice cannot represent other Poisson ratios (Cauchy
 relation): ``calibrate`` refuses |nu - nu_lattice| > NU_TOLERANCE and reports
@@ -44,18 +50,22 @@ def merge(i, j, k, n):
     return uniq // n, uniq % n, np.bincount(inv, weights=k)
 
 
-def calibrate(E: float, nu: float, thickness: float, kind: str) -> tuple[float, float, float]:
-    """(k1, k2, lattice nu) for the square lattice with diagonals."""
+def calibrate(E: float, nu: float, length: float, kind: str) -> tuple[float, float, float]:
+    """(edge k, diagonal k, lattice nu).  ``length``: the thickness in plane
+    stress, the spacing for a 3D (solid) lattice, unused in plane strain."""
     if kind == "plane_stress":
-        nu_lat, k2 = 1 / 3, 3 * E * thickness / 8
+        nu_lat, k2 = 1 / 3, 3 * E * length / 8
+        k1, name = 2 * k2, "a square lattice with diagonal bonds"
     elif kind == "plane_strain":
         nu_lat, k2 = 1 / 4, 3 * (E / (1 - nu ** 2)) / 8
+        k1, name = 2 * k2, "a square lattice with diagonal bonds"
     else:
-        raise ValueError("3D lattices are not implemented; use a 2D (plane) material")
+        nu_lat, k2 = 1 / 4, 0.4 * E * length
+        k1, name = k2, "a simple cubic lattice with face-diagonal bonds"
     if abs(nu - nu_lat) > NU_TOLERANCE:
-        raise ValueError(f"a square lattice with diagonal bonds represents nu = {nu_lat:.3g} in "
-                         f"{kind}; the material has nu = {nu:g} (allowed within {NU_TOLERANCE})")
-    return 2 * k2, k2, nu_lat
+        raise ValueError(f"{name} represents nu = {nu_lat:.3g} in {kind}; the material has "
+                         f"nu = {nu:g} (allowed within {NU_TOLERANCE})")
+    return k1, k2, nu_lat
 
 
 def square(origin, shape, spacing: float, E: float, nu: float, rho: float, thickness: float,
@@ -80,6 +90,35 @@ def square(origin, shape, spacing: float, E: float, nu: float, rho: float, thick
         np.add.at(mass, corner.ravel(), rho * t * spacing ** 2 / 4)
     corners = np.stack([c00.ravel(), c10.ravel(), c11.ravel(), c01.ravel()], axis=1)
     mi, mj, mk = merge(bi, bj, bk, nx * ny)
+    return Lattice(points, mi, mj, mk, mass, spacing, corners, (bi, bj, bk, bc))
+
+
+def cubic(origin, shape, spacing: float, E: float, nu: float, rho: float) -> Lattice:
+    """3D lattice of shape (nx, ny, nz) particles: simple cubic with face diagonals."""
+    nx, ny, nz = shape
+    k_edge, k_diag, _ = calibrate(E, nu, spacing, "solid")
+    grid = np.stack(np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij"), -1)
+    points = np.asarray(origin, float) + spacing * grid.reshape(-1, 3)
+    idx = np.arange(nx * ny * nz).reshape(nx, ny, nz)
+    c = {(i, j, k): idx[i:nx - 1 + i, j:ny - 1 + j, k:nz - 1 + k].ravel()
+         for i in (0, 1) for j in (0, 1) for k in (0, 1)}
+    contrib = []
+    for a in c:                                      # 12 edges, 12 face diagonals per cell
+        for b in c:
+            d = np.subtract(b, a)
+            if tuple(a) >= tuple(b) or np.abs(d).sum() not in (1, 2) or np.abs(d).max() > 1:
+                continue
+            contrib.append((c[a], c[b], k_edge / 4 if np.abs(d).sum() == 1 else k_diag / 2))
+    n_cells = c[(0, 0, 0)].size
+    bi = np.concatenate([a for a, _, _ in contrib])
+    bj = np.concatenate([b for _, b, _ in contrib])
+    bk = np.concatenate([np.full(a.size, k) for a, _, k in contrib])
+    bc = np.tile(np.arange(n_cells), len(contrib))
+    mass = np.zeros(nx * ny * nz)
+    for corner in c.values():
+        np.add.at(mass, corner, rho * spacing ** 3 / 8)
+    corners = np.stack(list(c.values()), axis=1)
+    mi, mj, mk = merge(bi, bj, bk, nx * ny * nz)
     return Lattice(points, mi, mj, mk, mass, spacing, corners, (bi, bj, bk, bc))
 
 

@@ -16,8 +16,9 @@ def half_rise(t, v):
     return t[k - 1] + (0.5 * peak - v[k - 1]) / (v[k] - v[k - 1]) * (t[k] - t[k - 1]), peak
 
 
-def test_wave_bar_fem_matches_the_1d_wave(tmp_path):
-    res = run_scene(raw_scene("wave_bar_fem"), tmp_path)
+@pytest.mark.parametrize("scene", ["wave_bar_fem", "wave_bar_3d"])
+def test_wave_bar_fem_matches_the_1d_wave(scene, tmp_path):
+    res = run_scene(raw_scene(scene), tmp_path)
     assert res.partitions["fem"]["steps"] == 2750
     for name, x in (("A", 0.078), ("B", 0.160), ("C", 0.242)):
         pr = res.probes[name]

@@ -41,3 +41,35 @@ def test_uniaxial_lattice_recovers_E_and_nu(kind, nu):
 def test_poisson_ratio_outside_the_lattice_range_is_refused():
     with pytest.raises(ValueError, match="represents nu = 0.333 in plane_stress; the material has nu = 0.2"):
         calibrate(70e9, 0.2, 1e-3, "plane_stress")
+
+
+def test_uniaxial_cubic_lattice_recovers_E_and_nu():
+    from solver.lattice import cubic
+    E, rho, a = 70e9, 2700.0, 1e-4
+    lat = cubic((0, 0, 0), (13, 7, 7), a, E, 0.25, rho)
+    n = len(lat.points)
+    r, c, v = bond_triplets(lat.points, lat.bond_i, lat.bond_j, lat.stiffness, dim=3)
+    K = np.zeros((3 * n, 3 * n))
+    np.add.at(K, (r, c), v)
+    eps = 1e-4
+    x, y, z = lat.points.T
+    L, H, W = x.max(), y.max(), z.max()
+    ends = np.isclose(x, 0) | np.isclose(x, L)
+    fixed = np.zeros(3 * n, bool)
+    fixed[3 * np.flatnonzero(ends)] = True
+    corner = np.argmin(x + y + z)
+    fixed[3 * corner + 1] = fixed[3 * corner + 2] = True          # no rigid lateral motion
+    fixed[3 * np.argmin(x + y - z) + 1] = True                      # no rotation about x
+    u = np.zeros(3 * n)
+    u[3 * np.flatnonzero(ends)] = eps * x[ends]
+    free = ~fixed
+    u[free] = np.linalg.solve(K[np.ix_(free, free)], -K[np.ix_(free, fixed)] @ u[fixed])
+    force = (K @ u)[3 * np.flatnonzero(np.isclose(x, L))].sum()
+    assert abs(force / (H * W) / eps / E - 1) < 0.02
+    mid = np.isclose(x, L / 2)
+    top, bottom = mid & np.isclose(y, H) & np.isclose(z, 0), mid & np.isclose(y, 0) & np.isclose(z, 0)
+    lateral = -(u[3 * np.flatnonzero(top) + 1] - u[3 * np.flatnonzero(bottom) + 1])[0] / H / eps
+    assert abs(lateral - 0.25) < 0.01
+    assert lat.mass.sum() == pytest.approx(rho * L * H * W, rel=1e-12)
+    with pytest.raises(ValueError, match="simple cubic lattice with face-diagonal bonds represents nu = 0.25"):
+        cubic((0, 0, 0), (3, 3, 3), a, E, 0.33, rho)
