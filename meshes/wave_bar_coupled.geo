@@ -2,7 +2,10 @@
 // (x in [0.158, 0.162]) is the DEM region. Structured quadrilaterals of 0.2 mm
 // everywhere, so the FE nodes coincide with the lattice sites of spacing 0.2 mm
 // in and around the DEM region. Groups: solid, fem, dem, left, right.
-L = 0.32;  H = 0.0024;  x1 = 0.158;  x2 = 0.162;
+L = 0.32;
+If (!Exists(H)) H = 0.0024; EndIf
+If (!Exists(x1)) x1 = 0.158; EndIf   // DEM region [x1, x2]
+If (!Exists(x2)) x2 = 0.162; EndIf
 If (!Exists(a)) a = 0.0002; EndIf   // element size = lattice spacing (model.mesh_parameters)
 Point(1) = {0, 0, 0};   Point(2) = {x1, 0, 0};  Point(3) = {x2, 0, 0};  Point(4) = {L, 0, 0};
 Point(5) = {L, H, 0};   Point(6) = {x2, H, 0};  Point(7) = {x1, H, 0};  Point(8) = {0, H, 0};
