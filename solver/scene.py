@@ -385,6 +385,17 @@ class MonolithicReference:
 
 
 @dataclass(frozen=True)
+class BarWaveReference:
+    kind: Literal["bar_wave"] = key(
+        "1D wave in a bar loaded at x = 0 (continuum models): speed sqrt(E/rho), particle "
+        "velocity sigma/(rho c) with sigma = traction/thickness (2D) or traction (3D), valid "
+        "until the first reflection from x = length reaches the probe")
+    length: float = key("bar length [m] (where the first reflection starts)", positive=True)
+    load: int = key("index of the load in loads (its time function is the incident pulse)", 0,
+                    nonnegative=True)
+
+
+@dataclass(frozen=True)
 class Fields:
     every: int = key("system steps between field snapshots", positive=True)
 
@@ -423,10 +434,11 @@ class Scene:
     loads: tuple[Load, ...] = key("external forces", ())
     initial: Initial = key("initial state (zero where not given)", Initial())
     probes: tuple[Probe, ...] = key("recorded node histories", ())
-    reference: Literal["none", "modal"] | MonolithicReference = key(
-        "none; modal: exact solution of the network at the probe times; or a monolithic run "
-        "{kind: monolithic, dt, integrator}", "none",
-        choices_doc="none | modal | mapping")
+    reference: Literal["none", "modal"] | MonolithicReference | BarWaveReference = key(
+        "none; modal: exact solution of the network at the probe times; a monolithic run "
+        "{kind: monolithic, dt, integrator}; or the 1D bar wave {kind: bar_wave, length}",
+        "none", parse=None, choices_doc="none | modal | mapping",
+        variants=(MonolithicReference, BarWaveReference))
     output: Output | None = key("output file; default results/<name>.h5", None)
     guard: Guard = key("stability and blow-up guards", Guard())
 
@@ -536,6 +548,11 @@ class Scene:
             fail("reference", "modal references are for network models")
         if continuum and self.initial != Initial():
             fail("initial", "initial states are for network models (continua start at rest)")
+        if isinstance(self.reference, BarWaveReference):
+            if not continuum:
+                fail("reference.kind", "bar_wave needs a continuum model")
+            if self.reference.load >= len(self.loads) or self.loads[self.reference.load].group is None:
+                fail("reference.load", f"{self.reference.load} is not a traction load")
         if isinstance(self.reference, MonolithicReference):
             ratio = self.system_dt / self.reference.dt
             if abs(ratio - round(ratio)) > 1e-6 * ratio:

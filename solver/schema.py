@@ -96,6 +96,11 @@ def convert(tp, value, path: str, meta=None):
             return None
         inner = [a for a in args if a is not type(None)]
         sections = [a for a in inner if dataclasses.is_dataclass(a)]
+        if isinstance(value, dict) and len(sections) > 1:
+            kinds = {typing.get_args(_hints(a)["kind"])[0]: a for a in sections}
+            if value.get("kind") not in kinds:
+                fail(f"{path}.kind", f"{value.get('kind')!r} is not one of {', '.join(kinds)}")
+            return convert(kinds[value["kind"]], value, path, {**meta, "parse": None})
         if len(inner) == 1 or (isinstance(value, dict) and len(sections) == 1):
             return convert(sections[0] if isinstance(value, dict) and sections else inner[0],
                            value, path, {**meta, "parse": None})

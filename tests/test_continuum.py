@@ -26,6 +26,8 @@ def test_wave_bar_fem_matches_the_1d_wave(scene, tmp_path):
         arrival -= T / 6                   # a half-sine reaches half its peak at T/6
         assert abs(arrival / (x / C) - 1) < 0.01, (name, arrival, x / C)
         assert abs(peak / V0 - 1) < 0.05, (name, peak, V0)
+        # the scene's bar_wave reference: displacement against the 1D solution
+        assert pr["attrs"]["rms_rel_error"] < 0.01, (name, pr["attrs"])
 
 
 def split_bar(tmp_path, eta=2, end=1.2e-5):
@@ -61,6 +63,7 @@ def test_continuum_errors(tmp_path):
         (("model", "material"), {"E": 70e9, "nu": 0.33, "rho": 2700.0, "kind": "solid"},
          "model.material.kind: solid does not fit a 2D mesh"),
         (("reference",), "modal", "reference: modal references are for network models"),
+        (("reference",), {"kind": "bar", "length": 0.32}, "reference.kind: 'bar' is not one of"),
         (("model", "mesh"), "meshes/nope.geo", "model.mesh: meshes/nope.geo: mesh file not found"),
     ]
     for path, value, message in cases:
