@@ -40,8 +40,12 @@ class FemPartition(Partition):
         n = self.held_dofs.size
         h = self.dt
         diag = np.arange(n)
+        beta, gamma = self.integrator.beta, self.integrator.gamma
+        a_r, b_r = (self.damping.alpha, self.damping.beta) if self.damping else (0.0, 0.0)
+        # K_eff = M + gamma h C + beta h^2 K with C = a_r M + b_r K
         K_eff = aij(np.concatenate([rows, diag]), np.concatenate([cols, diag]),
-                    np.concatenate([self.integrator.beta * h * h * np.asarray(vals), self.mass]),
+                    np.concatenate([(beta * h * h + gamma * h * b_r) * np.asarray(vals),
+                                    (1.0 + gamma * h * a_r) * self.mass]),
                     n, self.comm, self.prefix, bs=self.dof)
         K_eff.setName(f"{self.name}_effective")
         self._mats = [K_eff]
@@ -70,7 +74,7 @@ class FemPartition(Partition):
         ksp.setUp()
         self.ksp = ksp
         self._reasons = {v: k for k, v in vars(P.KSP.ConvergedReason).items() if isinstance(v, int)}
-        self.built.append(f"effective matrix M + beta h^2 K ({m}x{m} solved block), KSP "
+        self.built.append(f"effective matrix M + gamma h C + beta h^2 K ({m}x{m} solved block), KSP "
                           f"{ksp.getType()} + PC {ksp.getPC().getType()}")
 
     def accelerate(self):

@@ -81,8 +81,10 @@ class GravouilCombescure:
                     f"{spec.ratio * scene.time.dt:.4g} s is unstable, critical step "
                     f"{fr.critical_step():.4g} s (omega_max {fr.omega_max:.4g} rad/s)")
         R = scene.system_ratio
-        self.A = FemPartition(spec_a, lay_a, model_a, P.COMM_SELF, "literal", scene.time.dt, R)
-        self.B = FemPartition(spec_b, lay_b, model_b, P.COMM_SELF, "literal", scene.time.dt, R)
+        self.A = FemPartition(spec_a, lay_a, model_a, P.COMM_SELF, "literal", scene.time.dt, R,
+                              scene.damping)
+        self.B = FemPartition(spec_b, lay_b, model_b, P.COMM_SELF, "literal", scene.time.dt, R,
+                              scene.damping)
         self.parts = [self.A, self.B] if a == 0 else [self.B, self.A]
         self.models = {self.A.name: model_a, self.B.name: model_b}
         self.m = self.A.n_sub

@@ -23,7 +23,10 @@ class Newmark:
                implicit  (M + gamma h C + beta h^2 K) a' = f(t+h) - K u~ - C v~
     corrector  u' = u~ + beta h^2 a' ;  v' = v~ + gamma h a'
 
-    Second order for gamma = 1/2.  Stability: the explicit form needs
+    Second order for gamma = 1/2.  With Rayleigh damping the explicit form
+    solves (M + gamma h alpha M) a' = f - K u~ - C v~ (still diagonal), second
+    order in alpha, first order in the stiffness-proportional beta_R (its force
+    uses v~); the implicit form is second order in both.  Stability: the explicit form needs
     omega_max h < 2 for any beta; the implicit form is unconditionally stable
     for 2 beta >= gamma >= 1/2, else omega_max h < 1/sqrt(gamma/2 - beta).
     ``predict`` and ``finish`` are separate so that the staggered scheme can
@@ -97,9 +100,11 @@ class Newmark:
 class VelocityVerlet:
     """Velocity Verlet (seed 000 eq. 6 with its typo fixed).
 
-    x' = x + h v + h^2/2 a ;  a' = F(x')/m ;  v' = v + h/2 (a + a')
+    x' = x + h v + h^2/2 a ;  a' = F(x', v + h/2 a)/m ;  v' = v + h/2 (a + a')
 
-    Second order, symplectic.  Stability: omega_max h < 2.
+    Second order, symplectic without damping (damping forces use the half-step
+    velocity, first order in the damping terms).  Stability: omega_max h < 2
+    undamped, 2 (sqrt(1 + xi^2) - xi) with damping ratio xi at omega_max.
     """
 
     name = "verlet"
@@ -126,7 +131,7 @@ class VelocityVerlet:
             u_axpy(h, v)
             u_axpy(hh, a)
             v_axpy(half, a)
-            residual(t1, u, None)
+            residual(t1, u, v)          # v is the half-step velocity (used by damping only)
             accelerate()
             v_axpy(half, a)
         return step

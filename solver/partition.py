@@ -32,7 +32,7 @@ class Partition:
     method = "?"
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
-                 system_ratio: int):
+                 system_ratio: int, damping=None):
         self.spec = spec
         self.name = spec.name
         self.prefix = f"{spec.name}_"
@@ -73,6 +73,16 @@ class Partition:
             self.corrected = tuple(owned)
             self._views += owned
         self._setup_loads(model, layout)
+        self.damping = damping if damping is not None and damping.active else None
+        if self.damping and self.integrator.name == "explicit":
+            # explicit Newmark: (M + gamma h alpha M) a = f - K u~ - C v~ keeps the
+            # mass-proportional part second order and the solve diagonal
+            self._minv /= 1.0 + self.integrator.gamma * self.dt * self.damping.alpha
+        if self.damping:
+            # r = f - K (u + beta v) - alpha M v: two work Vecs, used only when damped
+            self._uv, self._am = np.zeros(n), self.damping.alpha * self.mass
+            self.uv, self.am_v = vec_on(self._uv, comm), vec_on(np.zeros(n), comm)
+            self.alpha_m = vec_on(self._am, comm)
         for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
             getattr(self, name).setOptionsPrefix(self.prefix)
         self.Kneg = self.build_operator(model, layout)
@@ -111,8 +121,14 @@ class Partition:
 
     # ---------------------------------------------------------------- physics
     def residual(self, t, u, v):
-        """r = f(t) - K u (damping-free partitions ignore v)."""
-        self.Kneg.mult(u, self.r)
+        """r = f(t) - K u - C v, C = alpha M + beta K (undamped partitions ignore v)."""
+        if self.damping and v is not None:
+            self.uv.waxpy(self.damping.beta, v, u)
+            self.Kneg.mult(self.uv, self.r)
+            self.am_v.pointwiseMult(self.alpha_m, v)
+            self.r.axpy(-1.0, self.am_v)
+        else:
+            self.Kneg.mult(u, self.r)
         if self._loads:
             R = self.R
             f = self.f_last
@@ -194,6 +210,9 @@ class Partition:
             getattr(self, name).destroy()
         for vec in self._views:
             vec.destroy()
+        if self.damping:
+            for vec in (self.uv, self.am_v, self.alpha_m):
+                vec.destroy()
 
 
 def _ids(nodes, limit=6) -> str:

@@ -28,6 +28,23 @@ def free(q0, qd0, w, t):
     return q, qd
 
 
+def free_damped(q0, qd0, w, c, t):
+    """q, q' of q'' + c q' + w^2 q = 0 (underdamped, or w = 0) from (q0, qd0)."""
+    T = t[:, None]
+    rigid = w == 0
+    ws = np.where(rigid, 1.0, w)
+    xw = 0.5 * c                                     # xi * omega
+    wd = np.sqrt(np.maximum(ws ** 2 - xw ** 2, 1e-300))
+    e = np.exp(-xw * T)
+    cos, sin = np.cos(wd * T), np.sin(wd * T)
+    q = e * (q0 * cos + (qd0 + xw * q0) / wd * sin)
+    qd = e * (qd0 * cos - (ws ** 2 * q0 + xw * qd0) / wd * sin)
+    cs = np.where(c > 0, c, 1.0)
+    q_r = np.where(c > 0, q0 + qd0 * (1 - np.exp(-cs * T)) / cs, q0 + qd0 * T)
+    qd_r = np.where(c > 0, qd0 * np.exp(-cs * T), qd0 + 0 * T)
+    return np.where(rigid, q_r, q), np.where(rigid, qd_r, qd)
+
+
 def sine_response(A, W, w, t):
     """q, q' of q'' + w^2 q = A sin(W t), zero initial state."""
     t = t[:, None]
@@ -113,18 +130,24 @@ def modes(model):
     return np.sqrt(lam), psi * s[:, None]
 
 
-def modal(model, dofs, t, chunk=4096):
-    """Exact displacement and velocity at ``dofs`` for times ``t``: [nt, len(dofs)]."""
+def modal(model, dofs, t, chunk=4096, damping=None):
+    """Exact displacement and velocity at ``dofs`` for times ``t``: [nt, len(dofs)].
+    With Rayleigh ``damping`` (C = alpha M + beta K, modal c = alpha + beta w^2):
+    free vibration only, every mode underdamped."""
     t = np.asarray(t, dtype=float)
     dofs = np.asarray(dofs, dtype=np.int64)
     w, phi = modes(model)
+    damped = damping is not None and damping.active
+    c = damping.alpha + damping.beta * w ** 2 if damped else np.zeros_like(w)
+    if damped and (model.loads or np.any((w > 0) & (0.5 * c >= w))):
+        raise ValueError("the damped modal reference covers underdamped free vibration only")
     m = np.repeat(model.mass, model.dof)
     q0, qd0 = phi.T @ (m * model.u0), phi.T @ (m * model.v0)
     u = np.zeros((t.size, dofs.size))
     v = np.zeros_like(u)
     for a in range(0, t.size, chunk):
         tc = t[a:a + chunk]
-        q, qd = free(q0, qd0, w, tc)
+        q, qd = free_damped(q0, qd0, w, c, tc) if damped else free(q0, qd0, w, tc)
         for load in model.loads:
             fq, fqd = forced_response(load.function, w, tc)
             q += fq * (load.scale * phi[load.dof])

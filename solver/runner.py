@@ -53,6 +53,9 @@ def check_stability(scene, mdl, layouts, ids):
         dt = spec.ratio * scene.time.dt
         freqs[spec.name] = fr
         limit = integrators.make(spec).critical_omega_h()
+        if scene.damping.active and spec.integrator != "implicit":
+            xi = scene.damping.ratio(fr.omega_max)          # damping lowers the explicit limit
+            limit = 2.0 * (np.sqrt(1.0 + xi * xi) - xi)
         if fr.omega_max * dt >= limit:
             problems.append(
                 f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
@@ -113,8 +116,8 @@ def build(scene, comm, say=_silent) -> Assembly:
         for problem in problems:
             say(f"warning: {problem}; guard.stable_step is false, running anyway")
         parts = [PARTITION_TYPES[scene.partitions[p].method](
-            scene.partitions[p], layouts[p], mdl, MPI.COMM_SELF, treatments[p], scene.time.dt, R)
-            for p in local_ids]
+            scene.partitions[p], layouts[p], mdl, MPI.COMM_SELF, treatments[p], scene.time.dt, R,
+            scene.damping) for p in local_ids]
         scheme = scheme_cls(comm, layouts, parts, mdl.dof, scene)
     lines = []
     for part in parts:
@@ -285,7 +288,7 @@ def add_reference(result, mdl, scene, comm, say):
         t_axis = next(iter(result.probes.values()))["t"]
         if scene.reference == "modal":
             dofs = [p.node * mdl.dof + p.component for p in scene.probes]
-            u_ref, _ = reference.modal(mdl, dofs, t_axis)
+            u_ref, _ = reference.modal(mdl, dofs, t_axis, damping=scene.damping)
             refs = {p.name: u_ref[:, i] for i, p in enumerate(scene.probes)}
         elif getattr(scene.reference, "kind", "") == "bar_wave":
             from . import barwave

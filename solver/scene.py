@@ -414,6 +414,20 @@ class Output:
 
 
 @dataclass(frozen=True)
+class Damping:
+    alpha: float = key("mass-proportional coefficient [1/s]", 0.0, nonnegative=True)
+    beta: float = key("stiffness-proportional coefficient [s]", 0.0, nonnegative=True)
+
+    @property
+    def active(self) -> bool:
+        return self.alpha > 0 or self.beta > 0
+
+    def ratio(self, omega: float) -> float:
+        """Damping ratio of a mode of frequency omega: 1/2 (alpha/omega + beta omega)."""
+        return 0.5 * (self.alpha / omega + self.beta * omega) if omega > 0 else 0.0
+
+
+@dataclass(frozen=True)
 class Guard:
     stable_step: bool = key("refuse explicit steps with omega_max*dt >= 2 before stepping", True)
     energy_bound: float = key(
@@ -433,6 +447,8 @@ class Scene:
     coupling: Coupling = key("how partitions exchange", Coupling())
     loads: tuple[Load, ...] = key("external forces", ())
     initial: Initial = key("initial state (zero where not given)", Initial())
+    damping: Damping = key("Rayleigh damping C = alpha M + beta K of every partition (bonds "
+                           "included)", Damping())
     probes: tuple[Probe, ...] = key("recorded node histories", ())
     reference: Literal["none", "modal"] | MonolithicReference | BarWaveReference = key(
         "none; modal: exact solution of the network at the probe times; a monolithic run "
@@ -544,6 +560,8 @@ class Scene:
             seen.add(probe.name)
         if self.output and self.output.fields and not continuum:
             fail("output.fields", "field output is for continuum models")
+        if self.reference == "modal" and self.damping.active and self.loads:
+            fail("reference", "the damped modal reference covers free vibration (no loads)")
         if continuum and self.reference == "modal":
             fail("reference", "modal references are for network models")
         if continuum and self.initial != Initial():
