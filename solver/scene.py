@@ -19,7 +19,7 @@ import yaml
 
 from . import generators
 from .errors import SceneError
-from .schema import convert, fail, key, parse
+from .schema import convert, fail, key, parse, tagged
 
 GROUND = -1  # node id of the fixed end of a spring
 
@@ -99,16 +99,7 @@ class MetamaterialGenerator:
             fail(path, "M + N + Q must be at least 1")
 
 
-GENERATORS = {"chain": ChainGenerator, "metamaterial": MetamaterialGenerator}
-
-
-def _generator(value, path):
-    if not isinstance(value, dict):
-        fail(path, f"expected a mapping with a name ({', '.join(GENERATORS)}), got {value!r}")
-    name = value.get("name")
-    if name not in GENERATORS:
-        fail(f"{path}.name", f"{name!r} is not one of {', '.join(GENERATORS)}")
-    return parse(GENERATORS[name], value, path)
+_generator = tagged("name", {"chain": ChainGenerator, "metamaterial": MetamaterialGenerator})
 
 
 @dataclass(frozen=True)
@@ -239,16 +230,7 @@ class ContinuumModel:
         return self.mesh_data.dim
 
 
-MODELS = {"network": NetworkModel, "continuum": ContinuumModel}
-
-
-def _model(value, path):
-    if not isinstance(value, dict):
-        fail(path, f"expected a mapping with a kind ({', '.join(MODELS)}), got {value!r}")
-    kind = value.get("kind")
-    if kind not in MODELS:
-        fail(f"{path}.kind", f"{kind!r} is not one of {', '.join(MODELS)}")
-    return parse(MODELS[kind], value, path)
+_model = tagged("kind", {"network": NetworkModel, "continuum": ContinuumModel})
 
 
 def _node_set(value, path):

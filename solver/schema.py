@@ -36,6 +36,17 @@ def key(doc: str, default: Any = MISSING, *, positive: bool = False,
     return dataclasses.field(default=default, metadata=meta)
 
 
+def tagged(tag: str, variants: dict):
+    """A ``parse`` hook for a mapping whose ``tag`` key picks the section class."""
+    def parse_variant(value, path):
+        if not isinstance(value, dict):
+            fail(path, f"expected a mapping with a {tag} ({', '.join(variants)}), got {value!r}")
+        if value.get(tag) not in variants:
+            fail(f"{path}.{tag}", f"{value.get(tag)!r} is not one of {', '.join(variants)}")
+        return parse(variants[value[tag]], value, path)
+    return parse_variant
+
+
 def fail(path: str, message: str):
     raise SceneError(f"{path}: {message}" if path else message)
 
