@@ -187,3 +187,16 @@ def test_interface_forces_are_action_and_reaction(tmp_path):
     Kd = -dem.Kneg.getValues(local(dem, cols_d), local(dem, rows_f))
     assert np.abs(Kf).max() > 0
     assert np.allclose(Kf, Kd.T, rtol=1e-12, atol=1e-9 * np.abs(Kf).max())
+
+
+@pytest.mark.parametrize("eta,warned", [(2, False), (3, True)])
+def test_coupled_implicit_step_warning(eta, warned, tmp_path):
+    """Coupled implicit steps beyond ~1.4x the explicit critical step were found
+    unstable: the run says so before stepping (and the energy guard stays on)."""
+    raw = coupled_bar(partitions__0__integrator="implicit", partitions__0__ratio=eta,
+                      coupling__scheme="staggered")
+    raw["time"]["end"] = 1e-6
+    raw["output"] = {"file": str(tmp_path / "o.h5")}
+    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
+    assert proc.returncode == 0, proc.stderr
+    assert ("found unstable beyond ~1.4x" in proc.stdout) == warned, proc.stdout
