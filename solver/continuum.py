@@ -115,7 +115,7 @@ def attach_lattice(scene, mesh, mass, cells):
     nodes that coincide with its sites: (bonds, overlap cells, mass with particle
     masses for dem-owned nodes)."""
     from .errors import SceneError
-    from .lattice import merge, square
+    from .lattice import cubic, merge, square
     spec, mat = scene.model.lattice, scene.model.material
     region = mesh.group(spec.region, "model.lattice.region")
     pts = mesh.points
@@ -129,7 +129,8 @@ def attach_lattice(scene, mesh, mass, cells):
     lo, hi = np.maximum(lo, pts.min(axis=0)), np.minimum(hi, pts.max(axis=0))
     shape = np.rint((hi - lo) / a).astype(int) + 1
     try:
-        lat = square(lo, shape, a, mat.E, mat.nu, mat.rho, mat.thickness, mat.kind)
+        lat = (square(lo, shape, a, mat.E, mat.nu, mat.rho, mat.thickness, mat.kind)
+               if mesh.dim == 2 else cubic(lo, shape, a, mat.E, mat.nu, mat.rho))
     except ValueError as e:
         raise SceneError(f"model.lattice: {e}") from None
     # pair every lattice site with the mesh node at the same place
@@ -137,10 +138,10 @@ def attach_lattice(scene, mesh, mass, cells):
     on_grid = np.all(np.abs(pts - (lo + cell * a)) <= 1e-3 * a, axis=1) & \
         np.all((cell >= 0) & (cell < shape), axis=1)
     site_of = np.full(int(np.prod(shape)), -1, dtype=np.int64)
-    site_of[cell[on_grid, 0] * shape[1] + cell[on_grid, 1]] = np.flatnonzero(on_grid)
+    site_of[np.ravel_multi_index(tuple(cell[on_grid].T), tuple(shape))] = np.flatnonzero(on_grid)
     missing = np.flatnonzero(site_of < 0)
     if missing.size:
-        where = ", ".join(f"({x:.6g}, {y:.6g})" for x, y in lat.points[missing[:5]])
+        where = ", ".join("(" + ", ".join(f"{c:.6g}" for c in p) + ")" for p in lat.points[missing[:5]])
         raise SceneError(f"model.lattice: {missing.size} lattice sites have no mesh node within "
                          f"{1e-3 * a:.3g} m (the mesh must coincide with the lattice one spacing "
                          f"around region {spec.region!r}): {where}{' ...' if missing.size > 5 else ''}")
@@ -155,7 +156,7 @@ def attach_lattice(scene, mesh, mass, cells):
     # use the mesh cell there; the bonds come from the other lattice cells
     corners = site_of[lat.corners]
     n_dem = is_dem[corners].sum(axis=1)
-    mixed = (n_dem > 0) & (n_dem < 4)
+    mixed = (n_dem > 0) & (n_dem < corners.shape[1])
     ci, cj, ck, cell = lat.cell_bonds
     keep = ~mixed[cell]
     bi, bj, bk = merge(site_of[ci[keep]], site_of[cj[keep]], ck[keep], len(pts))

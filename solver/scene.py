@@ -179,8 +179,9 @@ class LatticeSpec:
     region: str = key("physical group (cells) filled with the bonded lattice")
     spacing: float = key("lattice spacing a [m]; the mesh must have a node at every lattice site "
                          "of the region and one spacing around it", positive=True)
-    kind: Literal["square"] = key("square: square lattice with diagonal bonds (2D; nu = 1/3 "
-                                  "plane stress, 1/4 plane strain)", "square")
+    kind: Literal["square"] = key("square: square lattice with diagonal bonds in 2D (nu = 1/3 "
+                                  "plane stress, 1/4 plane strain), simple cubic with face "
+                                  "diagonals in 3D (nu = 1/4)", "square")
 
 
 @dataclass(frozen=True)
@@ -209,8 +210,6 @@ class ContinuumModel:
             m.group(name, f"{path}.fixed")
         if self.lattice is not None:
             m.group(self.lattice.region, f"{path}.lattice.region")
-            if m.dim != 2:
-                fail(f"{path}.lattice", "lattices are 2D for now (square with diagonal bonds)")
         wants = "solid" if m.dim == 3 else ("plane_stress", "plane_strain")
         if (m.dim == 3) != (self.material.kind == "solid"):
             fail(f"{path}.material.kind", f"{self.material.kind} does not fit a {m.dim}D mesh "
