@@ -1,11 +1,12 @@
-"""Scaling of a coupled FEM-DEM scene on 1 and 2 ranks (one partition per rank).
+"""Scaling of a 3D coupled FEM-DEM scene on 1 and 2 ranks (one partition per rank).
 
     ./run.sh bench     (or: python benchmarks/bench_scaling.py)
 
 Partitions are not split across ranks: on 2 ranks the FEM and the DEM partition
 advance concurrently and meet at the exchange, so 2 ranks pay only when the two
-cost about the same.  The scene is wave_bar with a 0.4 mm lattice and mesh and
-a DEM region [x1, x2] wide enough to balance the partitions.
+cost about the same.  The scene is configs/bar3d.yaml lengthened to 8 cm, with
+the DEM block [x1, x2] sized to balance the partitions (a DEM particle step
+costs less than an FEM node step).
   strong scaling: the same problem on 1 and 2 ranks: speed-up, efficiency, and
                   the share of a system step each rank spends in the exchange
                   (waiting for the other partition included);
@@ -19,22 +20,24 @@ from pathlib import Path
 
 from solver.sweep import run_one
 
-BASE = ["model.mesh_parameters.a=4e-4", "model.lattice.spacing=4e-4", "time.dt=4e-8",
-        "time.end=3e-5", "model.mesh_parameters.x1=0.1", "model.mesh_parameters.x2=0.22"]
+SCENE = "configs/bar3d.yaml"
+BASE = ["model.mesh_parameters.L=0.08", "model.mesh_parameters.x1=0.016",
+        "model.mesh_parameters.x2=0.064", "time.end=1e-5", "output.energy_every=100"]
 
 
 def main():
     tmp = Path(tempfile.mkdtemp())
     runs = {}
-    double = ["model.mesh_parameters.H=0.0048"]
+    double = ["model.mesh_parameters.H=0.0048"]            # twice the nodes
     for label, n, extra in (("1 rank", 1, []), ("2 ranks", 2, []),
                             ("1 rank, 2x height", 1, double), ("2 ranks, 2x height", 2, double)):
-        runs[label] = run_one("configs/wave_bar.yaml", n, BASE + extra,
+        runs[label] = run_one(SCENE, n, BASE + extra,
                               tmp / f"{label.replace(' ', '_').replace(',', '')}.h5")
     one, two = runs["1 rank"], runs["2 ranks"]
     one2, weak = runs["1 rank, 2x height"], runs["2 ranks, 2x height"]
     steps = one["system_steps"]
-    lines = ["# Scaling: wave_bar, 0.4 mm, DEM region [0.10, 0.22] m (one partition per rank)", "",
+    lines = ["# Scaling: 3D bar (configs/bar3d.yaml), 8 cm, cubes of 0.4 mm, DEM block "
+             "[16, 64] mm (one partition per rank)", "",
              "| run | stepping [s] | per system step [us] | fem partition [s] | dem partition [s] | "
              "exchange share fem rank | exchange share dem rank |", "|---|---|---|---|---|---|---|"]
     for label, r in runs.items():
