@@ -162,23 +162,14 @@ def test_fields_for_paraview_read_back_with_meshio(tmp_path):
 
 
 def bar3d(coupled, tmp_path):
-    """A short 3D bar (cubes of 0.4 mm) with a DEM lattice in [8, 12] mm (nu = 1/4,
-    which a 3D central-force lattice represents), or FEM everywhere."""
-    raw = {"name": "bar3d", "time": {"end": 4.0e-6, "dt": 2e-8},
-           "model": {"kind": "continuum", "mesh": "meshes/bar3d_coupled.geo",
-                     "material": {"E": 70e9, "nu": 0.25, "rho": 2700.0, "kind": "solid"},
-                     "body": "solid", "fixed": ["right"]},
-           "partitions": [{"name": "fem", "method": "fem", "group": "fem" if coupled else "solid",
-                           "integrator": "explicit", "ratio": 1}],
-           "loads": [{"group": "left", "kind": "half_sine", "amplitude": 3.125e7,
-                      "duration": 1.5e-6, "direction": [1.0, 0.0, 0.0]}],
-           "probes": [{"name": "D", "at": [0.010, 0.0012, 0.0004]},
-                      {"name": "F", "at": [0.016, 0.0012, 0.0004]}],
-           "output": {"file": str(tmp_path / f"bar3d_{coupled}.h5")}}
-    if coupled:
-        raw["model"]["lattice"] = {"region": "dem", "spacing": 4e-4}
-        raw["partitions"].append({"name": "dem", "method": "dem", "group": "dem",
-                                  "integrator": "verlet", "ratio": 1})
+    """configs/bar3d.yaml (a short 3D bar with a DEM block, nu = 1/4), or the same
+    bar with FEM everywhere."""
+    raw = raw_scene("bar3d")
+    raw["output"] = {"file": str(tmp_path / f"bar3d_{coupled}.h5")}
+    if not coupled:
+        del raw["model"]["lattice"]
+        raw["partitions"] = [{"name": "fem", "method": "fem", "group": "solid",
+                              "integrator": "explicit", "ratio": 1}]
     return raw
 
 
