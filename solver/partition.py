@@ -28,6 +28,48 @@ from . import integrators
 from .petscutil import vec_on
 
 
+class LoadGroup:
+    """Loaded DOFs sharing one time function g: f = g(t) * scale at ``idx``;
+    ``own`` marks the owned ones (their external work is this partition's).
+    A single DOF takes a scalar path (no numpy call overhead per step)."""
+
+    def __init__(self, at, idx, scale, own):
+        self.at = at
+        self.idx = np.asarray(idx, dtype=np.int64)
+        self.scale = np.asarray(scale, dtype=float)
+        own = np.asarray(own, dtype=bool)
+        self.own, self.own_scale = self.idx[own], self.scale[own]
+        self.single = self.idx.size == 1
+        self.i0, self.s0 = int(self.idx[0]), float(self.scale[0])
+        self.val = self.val_prev = 0.0
+        self.u_prev = np.zeros(self.own.size)
+
+    def apply(self, R, t):
+        """R += f(t); remembers g(t) for the work."""
+        v = self.val = self.at(t)
+        if self.single:
+            R[self.i0] += v * self.s0
+        else:
+            R[self.idx] += v * self.scale          # DOFs are distinct within a group
+
+    def remember(self, U):
+        self.val_prev = self.val
+        self.u_prev[:] = U[self.own]
+
+    def work_increment(self, U) -> float:
+        """1/2 (f_n + f_n+1) . (u_n+1 - u_n) over the owned DOFs, then remember."""
+        if self.single:
+            u = float(U[self.i0])
+            w = 0.5 * (self.val_prev + self.val) * self.s0 * (u - self.u_prev[0])
+            self.u_prev[0] = u
+        else:
+            u = U[self.own]
+            w = 0.5 * (self.val_prev + self.val) * float(np.dot(self.own_scale, u - self.u_prev))
+            self.u_prev[:] = u
+        self.val_prev = self.val
+        return w
+
+
 class Partition:
     method = "?"
 
@@ -95,21 +137,22 @@ class Partition:
         raise NotImplementedError
 
     def _setup_loads(self, model, layout):
+        """Group the held loaded DOFs by time function: one numpy update per group
+        and step (a traction on a face is one group), not a Python loop per DOF."""
         nodes = np.array([l.dof // model.dof for l in model.loads], dtype=np.int64)
         local = layout.local(nodes) if nodes.size else nodes
-        self._loads = []           # (local dof, g.at, scale)
-        self._owned_loads = []     # (index into _loads, local dof)
+        groups: dict[int, tuple] = {}
         for load, loc in zip(model.loads, local):
             if loc < 0:
                 continue
-            i = int(loc) * model.dof + load.dof % model.dof
-            if loc < layout.n_owned:
-                self._owned_loads.append((len(self._loads), i))
-            self._loads.append((i, load.function.at, load.scale))
-        self.f_last = [0.0] * len(self._loads)
+            at, idx, scale, own = groups.setdefault(id(load.function),
+                                                    (load.function.at, [], [], []))
+            idx.append(int(loc) * model.dof + load.dof % model.dof)
+            scale.append(load.scale)
+            own.append(loc < layout.n_owned)
+        self._loads = [LoadGroup(*g) for g in groups.values()]
+        self._owned_loads = [g for g in self._loads if g.own.size]
         self.work = 0.0
-        self._f_prev = [0.0] * len(self._owned_loads)
-        self._u_prev = [0.0] * len(self._owned_loads)
 
     def describe(self) -> str:
         lay = self.layout
@@ -129,13 +172,8 @@ class Partition:
             self.r.axpy(-1.0, self.am_v)
         else:
             self.Kneg.mult(u, self.r)
-        if self._loads:
-            R = self.R
-            f = self.f_last
-            for j, (i, g, scale) in enumerate(self._loads):
-                val = scale * g(t)
-                f[j] = val
-                R[i] += val
+        for group in self._loads:
+            group.apply(self.R, t)
 
     def accelerate(self):
         """a = M^-1 r; under the taylor treatment external a keeps its exchanged value."""
@@ -151,9 +189,8 @@ class Partition:
         self._remember_loads()
 
     def _remember_loads(self):
-        for k, (j, i) in enumerate(self._owned_loads):
-            self._f_prev[k] = self.f_last[j]
-            self._u_prev[k] = float(self.U[i])
+        for group in self._owned_loads:
+            group.remember(self.U)
 
     def after_step(self):
         """Bookkeeping after every completed step: step count and external work."""
@@ -163,14 +200,8 @@ class Partition:
     def _track_work(self):
         """W += 1/2 (f_n + f_n+1) . (u_n+1 - u_n) over the owned loaded DOFs (the
         work the trapezoidal rule balances exactly)."""
-        if self._owned_loads:
-            U, f, f_prev, u_prev = self.U, self.f_last, self._f_prev, self._u_prev
-            w = 0.0
-            for k, (j, i) in enumerate(self._owned_loads):
-                u, fj = float(U[i]), f[j]
-                w += 0.5 * (f_prev[k] + fj) * (u - u_prev[k])
-                f_prev[k], u_prev[k] = fj, u
-            self.work += w
+        for group in self._owned_loads:
+            self.work += group.work_increment(self.U)
 
     def advance(self, t0: float):
         """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
