@@ -65,13 +65,3 @@ def write(path: str, result) -> None:
     finally:
         if tmp.exists():
             tmp.unlink()
-
-
-def read_probe(path: str, name: str) -> dict:
-    """A probe's datasets and attributes, plus the file's root attributes."""
-    with h5py.File(path, "r") as f:
-        g = f[f"probes/{name}"]
-        out = {k: g[k][()] for k in g}
-        out.update({f"attr:{k}": v for k, v in g.attrs.items()})
-        out.update({f"root:{k}": v for k, v in f.attrs.items()})
-    return out
