@@ -72,14 +72,10 @@ class GravouilCombescure:
         spec_a, spec_b = scene.partitions[a], scene.partitions[b]
         self.freqs = {}
         for spec, m, lay in ((spec_a, model_a, lay_a), (spec_b, model_b, lay_b)):
-            fr = stability.omega_max(*m.stiffness_triplets(lay.held), m.mass[lay.held])
-            self.freqs[spec.name] = fr
-            limit = 2.0 if spec.integrator == "explicit" else float("inf")
-            if fr.omega_max * spec.ratio * scene.time.dt >= limit:
-                raise StabilityError(
-                    f"partition '{spec.name}' (GC subdomain, interface mass halved): step "
-                    f"{spec.ratio * scene.time.dt:.4g} s is unstable, critical step "
-                    f"{fr.critical_step():.4g} s (omega_max {fr.omega_max:.4g} rad/s)")
+            fr, crit, problem = stability.check(scene, spec, m, lay.held)
+            self.freqs[spec.name] = (fr, crit)
+            if problem:
+                raise StabilityError(f"{problem} (GC subdomain, interface mass halved)")
         R = scene.system_ratio
         self.A = FemPartition(spec_a, lay_a, model_a, P.COMM_SELF, "literal", scene.time.dt, R,
                               scene.damping)
@@ -136,17 +132,13 @@ class GravouilCombescure:
             vB = (1 - j / self.m) * self.vB0 + (j / self.m) * self.vB_free
             self.lam = self.H_inv @ (-(vA_free - vB))
             At[ia] += self.lam / A.mass[ia]
-            u, v, a, ut, vt = A.corrected
-            u.waxpy(A.integrator.beta * A.dt ** 2, a, ut)
-            v.waxpy(A.integrator.gamma * A.dt, a, vt)
+            A.integrator.correct(A)
             A.after_step()
 
     def _coarse_link(self):
         B = self.B
         B.A[:B.n_own] += self.X @ self.lam
-        u, v, a, ut, vt = B.corrected
-        u.waxpy(B.integrator.beta * B.dt ** 2, a, ut)
-        v.waxpy(B.integrator.gamma * B.dt, a, vt)
+        B.integrator.correct(B)
         B.after_step()
 
     def step(self, t0: float):

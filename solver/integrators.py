@@ -62,9 +62,13 @@ class Newmark:
         p.vt.waxpy((1.0 - self.gamma) * h, p.a, p.v)
 
     def finish(self, p, t1: float):
-        h = p.dt
         p.residual(t1, p.ut, p.vt)
         p.accelerate()
+        self.correct(p)
+
+    def correct(self, p):
+        """u = u~ + beta h^2 a ;  v = v~ + gamma h a (on ``p.corrected``)."""
+        h = p.dt
         u, v, a, ut, vt = p.corrected
         u.waxpy(self.beta * h * h, a, ut)
         v.waxpy(self.gamma * h, a, vt)

@@ -121,7 +121,7 @@ class Partition:
             # mass-proportional part second order and the solve diagonal
             self._minv /= 1.0 + self.integrator.gamma * self.dt * self.damping.alpha
         if self.damping:
-            # r = f - K (u + beta v) - alpha M v: two work Vecs, used only when damped
+            # r = f - K (u + beta v) - alpha M v: work Vecs made only when damped
             self._uv, self._am = np.zeros(n), self.damping.alpha * self.mass
             self.uv, self.am_v = vec_on(self._uv, comm), vec_on(np.zeros(n), comm)
             self.alpha_m = vec_on(self._am, comm)

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import model as model_mod
-from . import integrators, overlap, reference, stability
+from . import overlap, reference, stability
 from .coupling import SCHEMES
 from .dem import DemPartition
 from .gc import GravouilCombescure
@@ -42,25 +42,13 @@ def _silent(*_):
 
 
 def check_stability(scene, mdl, layouts, ids):
-    """(frequencies, problems) of the explicit partitions ``ids``; numpy only."""
+    """({name: (Frequency, critical step)}, problems) of partitions ``ids``; numpy only."""
     freqs, problems = {}, []
     for p in ids:
-        spec, lay = scene.partitions[p], layouts[p]
-        rows, cols, vals = mdl.stiffness_triplets(lay.held)
-        held_dofs = (lay.held[:, None] * mdl.dof + np.arange(mdl.dof)).ravel()
-        mass = np.where(mdl.fixed[held_dofs], np.inf, np.repeat(mdl.mass[lay.held], mdl.dof))
-        fr = stability.omega_max(rows, cols, vals, mass)
-        dt = spec.ratio * scene.time.dt
-        freqs[spec.name] = fr
-        limit = integrators.make(spec).critical_omega_h()
-        if scene.damping.active and spec.integrator != "implicit":
-            xi = scene.damping.ratio(fr.omega_max)          # damping lowers the explicit limit
-            limit = 2.0 * (np.sqrt(1.0 + xi * xi) - xi)
-        if fr.omega_max * dt >= limit:
-            problems.append(
-                f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
-                f"{scene.time.dt:.4g} s) is unstable, critical step {limit / fr.omega_max:.4g} s "
-                f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}); reduce time.dt or the ratio")
+        fr, crit, problem = stability.check(scene, scene.partitions[p], mdl, layouts[p].held)
+        freqs[scene.partitions[p].name] = (fr, crit)
+        if problem:
+            problems.append(problem)
     return freqs, problems
 
 
@@ -116,7 +104,7 @@ def build(scene, comm, say=_silent) -> Assembly:
         for problem in problems:
             say(f"warning: {problem}; guard.stable_step is false, running anyway")
         for warning in coupled_step_warnings(scene, comm.allgather(
-                {n: f.critical_step() for n, f in freqs.items()})):
+                {n: crit for n, (_, crit) in freqs.items()})):
             say(f"warning: {warning}")
         parts = [PARTITION_TYPES[scene.partitions[p].method](
             scene.partitions[p], layouts[p], mdl, MPI.COMM_SELF, treatments[p], scene.time.dt, R,
@@ -124,9 +112,8 @@ def build(scene, comm, say=_silent) -> Assembly:
         scheme = scheme_cls(comm, layouts, parts, mdl.dof, scene)
     lines = []
     for part in parts:
-        fr = freqs[part.name]
+        fr, crit = freqs[part.name]
         lines.append(f"[solver]   {part.describe()}")
-        crit = fr.critical_step(part.integrator.critical_omega_h())
         lines.append(f"[solver]   {part.name}: built {'; '.join(part.built)}; omega_max "
                      f"{fr.omega_max:.4g} rad/s ({fr.method}), critical step {crit:.4g} s")
     for chunk in comm.gather(lines, root=0) or []:
@@ -231,8 +218,8 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
         "ratio": part.spec.ratio, "dt": part.dt, "steps": part.steps, "wall_time": part.wall,
         "n_owned": part.layout.n_owned, "n_external": int(part.layout.external.size),
         "layers": len(part.layout.layers), "boundary": part.layout.boundary,
-        "omega_max": freqs[part.name].omega_max,
-        "critical_step": freqs[part.name].critical_step(part.integrator.critical_omega_h()),
+        "omega_max": freqs[part.name][0].omega_max,
+        "critical_step": freqs[part.name][1],
         "exchange_wall_time": x_wall} for part in parts}
     t_axis = np.arange(n_sys + 1) * Dt
     gathered, part_attrs = {}, {}

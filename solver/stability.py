@@ -40,3 +40,28 @@ def omega_max(rows, cols, vals, mass: np.ndarray) -> Frequency:
     radius = np.zeros(n)
     np.add.at(radius, rows, np.abs(scaled))
     return Frequency(float(np.sqrt(radius.max())), "Gershgorin bound")
+
+
+def check(scene, spec, model, held):
+    """Stability of partition ``spec`` holding ``held`` nodes of ``model``:
+    (Frequency, critical step [s], problem message or None).  The limit is the
+    integrator's (2 for explicit Newmark and Verlet, none for implicit average
+    acceleration), lowered by Rayleigh damping for explicit ones to
+    2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max."""
+    from . import integrators
+    rows, cols, vals = model.stiffness_triplets(held)
+    dofs = (held[:, None] * model.dof + np.arange(model.dof)).ravel()
+    mass = np.where(model.fixed[dofs], np.inf, np.repeat(model.mass[held], model.dof))
+    fr = omega_max(rows, cols, vals, mass)
+    limit = integrators.make(spec).critical_omega_h()
+    if scene.damping.active and spec.integrator != "implicit":
+        xi = scene.damping.ratio(fr.omega_max)
+        limit = 2.0 * (np.sqrt(1.0 + xi * xi) - xi)
+    crit = fr.critical_step(limit)
+    dt = spec.ratio * scene.time.dt
+    problem = None
+    if fr.omega_max * dt >= limit:
+        problem = (f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
+                   f"{scene.time.dt:.4g} s) is unstable, critical step {crit:.4g} s "
+                   f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}); reduce time.dt or the ratio")
+    return fr, crit, problem
