@@ -149,8 +149,12 @@ def strain_matrix(dNdx: np.ndarray) -> np.ndarray:
 def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
     """Element stiffness matrices K_e [n_el, n_nodes*dim, n_nodes*dim]."""
     _, dNdx, wdet = _geometry(family, X)
-    B = strain_matrix(dNdx)
-    return material.measure() * np.einsum("eq,eqsi,st,eqtj->eij", wdet, B, material.D(), B)
+    B = strain_matrix(dNdx)                                   # [e, q, s, nd]
+    DB = np.matmul(material.D(), B)                           # D B per quadrature point
+    DB *= (material.measure() * wdet)[:, :, None, None]
+    e, q, s, nd = B.shape
+    # K_e = sum_q B_q^T (w detJ D) B_q as one batched product over (q, s)
+    return np.matmul(B.reshape(e, q * s, nd).transpose(0, 2, 1), DB.reshape(e, q * s, nd))
 
 
 def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
