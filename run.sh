@@ -90,6 +90,7 @@ ensure_python
 MPIEXEC="$(mpiexec_for)"
 export MTS_MPIEXEC="$MPIEXEC"
 export MPLBACKEND=Agg
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"   # one BLAS thread per MPI rank
 export PYTHONPATH="$here${PYTHONPATH:+:$PYTHONPATH}"
 
 nproc_arg=()

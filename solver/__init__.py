@@ -5,4 +5,10 @@ Pipeline: scene (YAML) -> model (arrays) -> overlap layouts -> partitions
 Entry points: ``python -m solver`` (:mod:`solver.cli`), :func:`solver.runner.run`.
 """
 
-__version__ = "0.1.0"
+import os as _os
+
+# one BLAS thread per MPI rank (ranks already use the cores); set before numpy loads
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    _os.environ.setdefault(_var, "1")
+
+__version__ = "0.2.0"

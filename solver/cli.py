@@ -13,7 +13,7 @@ import sys
 
 from .errors import LaunchError, SolverError
 
-USAGE = """usage: python -m solver SCENE.yaml [--set key.path=value ...] [PETSc options]
+USAGE = """usage: python -m solver SCENE.yaml [--set key.path=value ...] [--restart FILE] [PETSc options]
        python -m solver keys [--markdown [--update docs/scene.md]] | schemes
 PETSc options (e.g. -options_file configs/x.opts, -log_view, -fem_mat_type baij) go to PETSc;
 every partition's PETSc objects carry the prefix <partition name>_ ."""
@@ -22,11 +22,15 @@ LAUNCH_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS
 
 
 def split_args(argv):
-    """(scene path, overrides, PETSc options) from the command line."""
-    scene, overrides, petsc = None, [], []
+    """(scene path, overrides, PETSc options, restart file) from the command line."""
+    scene, overrides, petsc, restart = None, [], [], None
     it = iter(argv)
     for arg in it:
-        if arg == "--set":
+        if arg == "--restart" or arg.startswith("--restart="):
+            restart = arg.split("=", 1)[1] if "=" in arg else next(it, None)
+            if not restart:
+                raise SolverError("--restart needs the output file of an earlier run")
+        elif arg == "--set":
             value = next(it, None)
             if value is None:
                 raise SolverError("--set needs key.path=value")
@@ -37,7 +41,7 @@ def split_args(argv):
             scene = arg
         else:
             petsc.append(arg)
-    return scene, overrides, petsc
+    return scene, overrides, petsc, restart
 
 
 def check_launch(comm):
@@ -112,7 +116,7 @@ def main(argv=None) -> int:
         return 0
     rank = 0
     try:
-        path, overrides, petsc_args = split_args(argv)
+        path, overrides, petsc_args, restart = split_args(argv)
         if path is None:
             raise SolverError(f"no scene file (*.yaml) among the arguments\n{USAGE}")
         from mpi4py import MPI
@@ -124,7 +128,7 @@ def main(argv=None) -> int:
         from .petscutil import init
         init(petsc_args)
         from .runner import run, summary
-        result = run(scene, comm, log=print, scene_text=open(path).read())
+        result = run(scene, comm, log=print, scene_text=open(path).read(), restart=restart)
         if rank == 0:
             for line in summary(result, scene.output_file):
                 print(line, flush=True)

@@ -64,10 +64,10 @@ class ConcurrentOverlap:
     def treatments(scene) -> list[str]:
         return [scene.coupling.external for _ in scene.partitions]
 
-    def __init__(self, comm, layouts, parts, dof, scene):
+    def __init__(self, comm, dists, ranks, parts, dof, scene):
         self.parts = parts
-        need = any(lay.layers for lay in layouts)
-        self.exchange = Exchange(comm, layouts, parts, dof) if need else None
+        need = any(d.layout.layers for d in dists)
+        self.exchange = Exchange(comm, dists, ranks, parts, dof) if need else None
         self.exchanges = [self.exchange] if need else []
         self.clocks = _Clocks(parts)
 
@@ -109,14 +109,14 @@ class Staggered(ConcurrentOverlap):
         return ["prescribed" if p.integrator == "implicit" else scene.coupling.external
                 for p in scene.partitions]
 
-    def __init__(self, comm, layouts, parts, dof, scene):
+    def __init__(self, comm, dists, ranks, parts, dof, scene):
         self.parts = parts
         i = next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
         local = {p.layout.index: p for p in parts}
         self.implicit = local.get(i)
         self.explicit = local.get(1 - i)
-        self.to_implicit = Exchange(comm, layouts, parts, dof, receivers={i})
-        self.to_explicit = Exchange(comm, layouts, parts, dof, receivers={1 - i})
+        self.to_implicit = Exchange(comm, dists, ranks, parts, dof, receivers={i})
+        self.to_explicit = Exchange(comm, dists, ranks, parts, dof, receivers={1 - i})
         self.exchanges = [self.to_implicit, self.to_explicit]
         self.exchange = None
         self.clocks = _Clocks(parts)
@@ -147,9 +147,9 @@ SCHEMES = {"overlap": ConcurrentOverlap, "staggered": Staggered}
 # What each coupling.scheme accepts (checked in Scene.validate and at launch).
 SUPPORT = {
     "overlap": "any number of partitions, each fem+explicit, fem+implicit or dem+verlet; "
-               "1 rank or one rank per partition; external: taylor, layers, literal",
+               "any number of ranks; external: taylor, layers, literal",
     "staggered": "exactly two partitions: fem+implicit with the largest ratio, and fem+explicit "
-                 "or dem+verlet; 1 or 2 ranks; external (of the explicit side): taylor, layers, "
+                 "or dem+verlet; any number of ranks; external (of the explicit side): taylor, layers, "
                  "literal",
     "gc": "exactly two partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank",
 }

@@ -10,7 +10,6 @@ the bonds the partition holds into PETSc AIJ (one MatMult per step).
 from __future__ import annotations
 
 from .partition import Partition
-from .petscutil import aij
 
 
 class DemPartition(Partition):
@@ -25,9 +24,7 @@ class DemPartition(Partition):
             "acceleration": self.A.reshape(n_p, dof),
             "global_id": layout.held,
         }
-        rows, cols, vals = model.bond_triplets(layout.held)
-        B = aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=-1.0,
-                bs=dof)
+        B = self.operator(model.bond_triplets(self.whole_held()), scale=-1.0)
         B.setName(f"{self.name}_bonds")
         self.built = [f"particles {n_p} ({layout.n_owned} owned), fields "
                       f"{', '.join(self.fields)}",

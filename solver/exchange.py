@@ -1,12 +1,14 @@
 """The overlap exchange: external copies <- owners' (u, v, a).
 
-All owned states live in one global PETSc Vec laid out partition by partition
-as [u | v | a] blocks; every rank scatters the entries its receiving
-partitions hold as external into one local Vec with a single VecScatter.  On
-one rank this is a local gather; on two ranks each partition sends its
-boundary to the other.  The concurrent scheme refreshes every partition's
-externals at once; the staggered scheme uses one exchange per direction
-(``receivers``).
+All owned states live in one global PETSc Vec laid out piece by piece (a
+piece is a partition's share on one rank, :mod:`solver.distribute`) as
+[u | v | a] blocks; every rank scatters the entries its receiving pieces
+hold as external into one local Vec with a single VecScatter, whatever the
+rank layout: on one rank a local gather, on several ranks each piece sends
+its boundary to the pieces that hold it as external.  The concurrent scheme
+refreshes every partition's externals at once; the staggered scheme uses one
+exchange per direction (``receivers``).  Ghosts *within* a partition are not
+exchanged here: the partition's parallel matrix refreshes them at every MatMult.
 """
 from __future__ import annotations
 
@@ -17,15 +19,32 @@ from .petscutil import init, vec_on
 
 class Exchange:
     """Refresh the externals of the ``receivers`` (partition indices; default
-    all local partitions) from their owners; every local partition sends."""
+    all) from their owners; every piece sends its owned (u, v, a).
 
-    def __init__(self, comm, layouts, parts, dof, receivers=None):
+    ``dists``: the Distribution of every partition; ``ranks``: the world ranks
+    of every partition (:class:`solver.ranks.Assignment`); ``parts``: this
+    rank's pieces in ascending partition order."""
+
+    def __init__(self, comm, dists, ranks, parts, dof, receivers=None):
         P = init()
-        sizes = [3 * lay.n_owned * dof for lay in layouts]
-        offset = np.concatenate([[0], np.cumsum(sizes)])
-        local_size = sum(sizes[p.layout.index] for p in parts)
+        n_nodes = dists[0].number.size
+        # the global Vec: every rank's pieces in rank order, each [u | v | a] of its owned DOFs
+        g_base = np.full(n_nodes, -1, dtype=np.int64)     # owner piece's block start
+        g_stride = np.zeros(n_nodes, dtype=np.int64)      # its owned DOFs (one field)
+        g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's place in its owned list
+        at, local_size = 0, 0
+        for r in range(comm.size):
+            for p in ranks.partitions_on(r):
+                piece = dists[p].pieces[ranks.ranks[p].index(r)]
+                own = piece.owned
+                g_base[own] = at
+                g_stride[own] = own.size * dof
+                g_pos[own] = np.arange(own.size)
+                at += 3 * own.size * dof
+                if r == comm.rank:
+                    local_size += 3 * own.size * dof
         self.G_arr = np.zeros(local_size)
-        self.G = vec_on(self.G_arr, comm, size=(local_size, int(offset[-1])))
+        self.G = vec_on(self.G_arr, comm, size=(local_size, at))
         self._send, g_at = [], 0
         for p in parts:
             g_view = self.G_arr[g_at:g_at + 3 * p.n_own].reshape(3, p.n_own)
@@ -36,19 +55,13 @@ class Exchange:
         for p in parts:
             if receivers is not None and p.layout.index not in receivers:
                 continue
-            lay = p.layout
-            n_ext = p.state.shape[1] - p.n_own
-            ext, owners = lay.external, lay.external_owner
-            pos = np.empty(ext.size, dtype=np.int64)      # place in the owner's owned list
-            for q in np.unique(owners):
-                sel = owners == q
-                pos[sel] = np.searchsorted(layouts[q].owned, ext[sel])
+            ext = p.layout.external
+            n_ext = ext.size * dof
             e_dof = (np.arange(ext.size)[:, None] * dof + comp).ravel()      # local external DOF
-            q_dof = (pos[:, None] * dof + comp).ravel()                     # owner's owned DOF
-            base = np.repeat(offset[owners], dof)
-            stride = np.repeat([layouts[q].n_owned * dof for q in owners], dof)
+            q_dof = (g_base[ext][:, None] + g_pos[ext][:, None] * dof + comp).ravel()
+            stride = np.repeat(g_stride[ext], dof)
             for f in range(3):                                              # u, v, a blocks
-                src.append(base + f * stride + q_dof)
+                src.append(q_dof + f * stride)
                 dst.append(x_at + f * n_ext + e_dof)
             blocks.append((p, x_at, n_ext))
             x_at += 3 * n_ext

@@ -24,9 +24,9 @@ class FemPartition(Partition):
     method = "fem"
 
     def build_operator(self, model, layout):
-        rows, cols, vals = model.stiffness_triplets(layout.held)
+        rows, cols, vals = self.distributed(*model.stiffness_triplets(self.whole_held()))
         K = aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=-1.0,
-                bs=self.dof)
+                bs=self.dof, n_global=self.n_global, first=self.first)
         K.setName(f"{self.name}_stiffness")
         n = K.getSize()[0]
         self.built = [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
@@ -39,22 +39,23 @@ class FemPartition(Partition):
         P = init()
         n = self.held_dofs.size
         h = self.dt
-        diag = np.arange(n)
+        diag = self.first + np.arange(n)
         beta, gamma = self.integrator.beta, self.integrator.gamma
         a_r, b_r = (self.damping.alpha, self.damping.beta) if self.damping else (0.0, 0.0)
         # K_eff = M + gamma h C + beta h^2 K with C = a_r M + b_r K
         K_eff = aij(np.concatenate([rows, diag]), np.concatenate([cols, diag]),
                     np.concatenate([(beta * h * h + gamma * h * b_r) * np.asarray(vals),
                                     (1.0 + gamma * h * a_r) * self.mass]),
-                    n, self.comm, self.prefix, bs=self.dof)
+                    n, self.comm, self.prefix, bs=self.dof, n_global=self.n_global,
+                    first=self.first)
         K_eff.setName(f"{self.name}_effective")
         self._mats = [K_eff]
-        m = self._solve[0].getSize()
+        m = self._solve[0].getLocalSize()
         self.K_OE = None
         A = K_eff
-        if m < n:
-            own = P.IS().createStride(m, 0, 1, comm=self.comm)
-            ext = P.IS().createStride(n - m, m, 1, comm=self.comm)
+        if self._solve[0].getSize() < self.n_global:
+            own = P.IS().createStride(m, self.first, 1, comm=self.comm)
+            ext = P.IS().createStride(n - m, self.first + m, 1, comm=self.comm)
             A = K_eff.createSubMatrix(own, own)
             self.K_OE = K_eff.createSubMatrix(own, ext)
             self.K_OE.scale(-1.0)
@@ -74,7 +75,8 @@ class FemPartition(Partition):
         ksp.setUp()
         self.ksp = ksp
         self._reasons = {v: k for k, v in vars(P.KSP.ConvergedReason).items() if isinstance(v, int)}
-        self.built.append(f"effective matrix M + gamma h C + beta h^2 K ({m}x{m} solved block), KSP "
+        mg = self._solve[0].getSize()
+        self.built.append(f"effective matrix M + gamma h C + beta h^2 K ({mg}x{mg} solved block), KSP "
                           f"{ksp.getType()} + PC {ksp.getPC().getType()}")
 
     def accelerate(self):

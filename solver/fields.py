@@ -28,7 +28,7 @@ MESHIO_CELLS = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "h
 
 
 class FieldWriter:
-    def __init__(self, scene, mdl, parts, comm):
+    def __init__(self, scene, mdl, parts, comm, tag: str = ""):
         from .elements import _geometry, strain_matrix
         self.comm = comm
         self.parts = parts
@@ -41,7 +41,7 @@ class FieldWriter:
         base = Path(scene.output_file).resolve().with_suffix("")
         base.parent.mkdir(parents=True, exist_ok=True)
         # meshio puts the heavy data in <stem>.h5 beside each .xdmf: keep clear of ours
-        self.files = [f"{base}_fields.xdmf", f"{base}_particles.xdmf"]
+        self.files = [f"{base}{tag}_fields.xdmf", f"{base}{tag}_particles.xdmf"]
         points = np.zeros((self.n, 3))
         points[:, :self.dim] = mdl.points
         self.points = points

@@ -17,16 +17,26 @@ import numpy as np
 
 
 class Probes:
-    def __init__(self, probes, parts_by_index, owner, n_steps: int):
+    def __init__(self, probes, parts, owner, n_steps: int):
+        """``parts``: this rank's partition pieces; a probe is recorded by the
+        piece that owns its node (on exactly one rank)."""
         self._rec = []
         for probe in probes:
-            part = parts_by_index.get(int(owner[probe.node]))
+            part = next((p for p in parts if p.layout.index == owner[probe.node] and
+                         0 <= p.layout.local(np.array([probe.node]))[0] < p.layout.n_owned), None)
             if part is None:
                 continue
             i = part.local_index(probe.node, probe.component)
             self._rec.append((probe, part, part.U, part.V, i,
                               np.empty(n_steps + 1), np.empty(n_steps + 1)))
         self.record(0)
+
+    def restore(self, saved: dict, k: int):
+        """Histories of a checkpoint up to system step ``k`` (name -> (u, v))."""
+        for probe, _, _, _, _, bu, bv in self._rec:
+            u, v = saved[probe.name]
+            bu[:k + 1] = u[:k + 1]
+            bv[:k + 1] = v[:k + 1]
 
     def record(self, k: int):
         for _, _, U, V, i, bu, bv in self._rec:
@@ -81,6 +91,16 @@ class EnergyGuard:
                     f"{self.bound:g} x (initial energy {self.initial:.4g} J + largest |external "
                     f"work| {self.max_work:.4g} J): the run is unstable")
         return None
+
+    def memory(self) -> dict:
+        """What a checkpoint keeps of the guard."""
+        return {"series": {k: list(v) for k, v in self.series.items()},
+                "initial": self.initial, "max_work": self.max_work}
+
+    def restore(self, memory: dict):
+        self.series = {k: list(v) for k, v in memory["series"].items()}
+        self.initial = memory["initial"]
+        self.max_work = memory["max_work"]
 
     def arrays(self) -> dict:
         out = {k: np.asarray(v) for k, v in self.series.items()}

@@ -59,7 +59,7 @@ def history(scene, t_axis, log=None) -> dict:
         if log:
             log(f"[solver] reference: monolithic {ref.integrator} run, {n} steps of {ref.dt:.3g} s")
         asm = build(rscene, MPI.COMM_SELF)
-        probes = Probes(rscene.probes, {0: asm.parts[0]}, owner_map(rscene.model.n_nodes,
+        probes = Probes(rscene.probes, asm.parts, owner_map(rscene.model.n_nodes,
                                                                   rscene.partitions), n)
         step = asm.scheme.step
         for s in range(n):

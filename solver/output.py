@@ -2,7 +2,7 @@
 
 Layout::
 
-    /                  attrs: scene, status (completed|failed), message, ranks,
+    /                  attrs: scene, status (running|completed|failed), message, ranks,
                        wall_time, stepping_wall_time, exchange_wall_time, scheme,
                        external_treatment, system_dt, base_dt, n_system_steps,
                        t_end, reference, scene_yaml, steps_<partition>,
@@ -13,6 +13,8 @@ Layout::
                        attrs: node, component, partition [, max_rel_error,
                        rms_rel_error]
     /energy/t, kinetic, strain, external_work, total
+    /checkpoint        (output.checkpoint, while running) the run state after
+                       system step attrs[step]: see :mod:`solver.state`
 """
 from __future__ import annotations
 
@@ -39,7 +41,9 @@ def check_writable(path: str) -> str | None:
     return None
 
 
-def write(path: str, result) -> None:
+def write(path: str, result, checkpoint=None) -> None:
+    """Write ``result`` (and ``checkpoint`` = (state data, attrs) as /checkpoint)
+    to ``path`` atomically: readers see the old file or the new one, never a part."""
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
@@ -61,6 +65,9 @@ def write(path: str, result) -> None:
             g = f.create_group("energy")
             for k, v in result.energy.items():
                 g.create_dataset(k, data=np.asarray(v))
+            if checkpoint is not None:
+                from .state import write_group
+                write_group(f, *checkpoint)
         os.replace(tmp, target)
     finally:
         if tmp.exists():

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import integrators
-from .petscutil import vec_on
+from .petscutil import aij, vec_on
 
 
 class LoadGroup:
@@ -33,7 +33,8 @@ class LoadGroup:
     ``own`` marks the owned ones (their external work is this partition's).
     A single DOF takes a scalar path (no numpy call overhead per step)."""
 
-    def __init__(self, at, idx, scale, own):
+    def __init__(self, key, at, idx, scale, own):
+        self.key = key              # index of the group's first load in the model
         self.at = at
         self.idx = np.asarray(idx, dtype=np.int64)
         self.scale = np.asarray(scale, dtype=float)
@@ -74,8 +75,9 @@ class Partition:
     method = "?"
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
-                 system_ratio: int, damping=None):
+                 system_ratio: int, damping=None, dist=None):
         self.spec = spec
+        self.dist = dist            # Distribution over the ranks of ``comm`` (None: one rank)
         self.name = spec.name
         self.prefix = f"{spec.name}_"
         self.layout = layout
@@ -89,6 +91,9 @@ class Partition:
         self.held_dofs = (held[:, None] * dof + np.arange(dof)).ravel()
         self.n_own = layout.n_owned * dof
         n = self.held_dofs.size
+        # this rank's rows in the partition's distributed DOF numbering
+        self.first = getattr(layout, "start", 0) * dof
+        self.n_global = dist.n_held * dof if dist is not None else n
         self.state = np.zeros((3, n))
         self.U, self.V, self.A = self.state
         self.u, self.v, self.a = (vec_on(x, comm) for x in (self.U, self.V, self.A))
@@ -103,7 +108,7 @@ class Partition:
         self.minv = vec_on(self._minv, comm)
         # taylor / prescribed: the acceleration solve covers the owned DOFs only,
         # so external accelerations keep their exchanged values
-        self.frozen = treatment in ("taylor", "prescribed") and n > self.n_own
+        self.frozen = treatment in ("taylor", "prescribed")
         m = self.n_own if self.frozen else n
         self._solve = (vec_on(self.A[:m], comm), vec_on(self.R[:m], comm),
                        vec_on(self._minv[:m], comm))
@@ -136,17 +141,43 @@ class Partition:
     def build_operator(self, model, layout):
         raise NotImplementedError
 
+    def distributed(self, rows, cols, vals):
+        """COO entries over the partition's held nodes (``dist.layout.held``
+        numbering) -> this rank's rows in the distributed numbering."""
+        if self.dist is None:
+            return rows, cols, np.asarray(vals, dtype=float)
+        dof = self.dof
+        num = self.dist.number[self.dist.layout.held]
+        gr = num[rows // dof] * dof + rows % dof
+        mine = (gr >= self.first) & (gr < self.first + self.held_dofs.size)
+        cols = cols[mine]
+        return gr[mine], num[cols // dof] * dof + cols % dof, np.asarray(vals, dtype=float)[mine]
+
+    def operator(self, triplets, scale=1.0):
+        """This rank's share of a matrix over the partition from COO entries
+        over the partition's held nodes; options prefix and type from the options."""
+        rows, cols, vals = self.distributed(*triplets)
+        return aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=scale,
+                   bs=self.dof, n_global=self.n_global, first=self.first)
+
+    def whole_held(self):
+        """Held nodes of the whole partition (all its pieces)."""
+        return self.dist.layout.held if self.dist is not None else self.layout.held
+
     def _setup_loads(self, model, layout):
         """Group the held loaded DOFs by time function: one numpy update per group
         and step (a traction on a face is one group), not a Python loop per DOF."""
         nodes = np.array([l.dof // model.dof for l in model.loads], dtype=np.int64)
         local = layout.local(nodes) if nodes.size else nodes
         groups: dict[int, tuple] = {}
+        first: dict[int, int] = {}
+        for i, load in enumerate(model.loads):
+            first.setdefault(id(load.function), i)
         for load, loc in zip(model.loads, local):
             if loc < 0:
                 continue
-            at, idx, scale, own = groups.setdefault(id(load.function),
-                                                    (load.function.at, [], [], []))
+            _, at, idx, scale, own = groups.setdefault(
+                id(load.function), (first[id(load.function)], load.function.at, [], [], []))
             idx.append(int(loc) * model.dof + load.dof % model.dof)
             scale.append(load.scale)
             own.append(loc < layout.n_owned)
@@ -157,7 +188,8 @@ class Partition:
     def describe(self) -> str:
         lay = self.layout
         ext = " + ".join(str(l.size) for l in lay.layers) or "0"
-        return (f"{self.name}: {self.method}, {self.integrator.describe()}; step {self.dt:.3e} s "
+        piece = f" piece {lay.piece + 1}/{lay.pieces}" if getattr(lay, "pieces", 1) > 1 else ""
+        return (f"{self.name}{piece}: {self.method}, {self.integrator.describe()}; step {self.dt:.3e} s "
                 f"x {self.n_sub} per system step; nodes: {lay.n_owned} owned (boundary "
                 f"{_ids(lay.boundary)}, interior {lay.interior.size}), external {ext} in "
                 f"{len(lay.layers)} layer(s) {_ids(lay.external)}")
@@ -187,6 +219,17 @@ class Partition:
         self.residual(0.0, self.u, self.v)
         self.a.pointwiseMult(self.r, self.minv)
         self._remember_loads()
+
+    def load_memory(self) -> dict:
+        """{load key: last load value} of the owned load groups (checkpoint state)."""
+        return {g.key: g.val_prev for g in self._owned_loads}
+
+    def restore_load_memory(self, values: dict):
+        for group in self._loads:
+            if group.key in values:
+                group.val = group.val_prev = values[group.key]
+        for group in self._owned_loads:
+            group.u_prev[:] = self.U[group.own]
 
     def _remember_loads(self):
         for group in self._owned_loads:

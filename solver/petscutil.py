@@ -1,4 +1,4 @@
-"""Thin helpers over petsc4py: start-up, Vecs on numpy memory, AIJ from COO.
+"""Thin helpers over petsc4py: start-up, Vecs on numpy memory, matrices from COO.
 
 petsc4py must be initialised with the command line's PETSc options before
 ``PETSc`` is imported anywhere; :func:`init` does that once, at the entry
@@ -46,33 +46,29 @@ def vec_on(array: np.ndarray, comm, size=None):
     return P.Vec().createWithArray(array, size=size, comm=comm)
 
 
-def coo_to_csr(rows, cols, vals, n):
-    """Sum duplicates and return CSR arrays (indptr, indices, data) for n rows."""
-    rows = np.asarray(rows, dtype=np.int64)
-    cols = np.asarray(cols, dtype=np.int64)
-    keys = rows * n + cols
-    uniq, inv = np.unique(keys, return_inverse=True)
-    data = np.bincount(inv, weights=vals, minlength=uniq.size)
-    r, c = uniq // n, uniq % n
-    indptr = np.searchsorted(r, np.arange(n + 1)).astype(P_int())
-    return indptr, c.astype(P_int()), data
+def aij(rows, cols, vals, n, comm, prefix: str, scale: float = 1.0, bs: int = 1,
+        n_global: int | None = None, first: int = 0):
+    """Square AIJ matrix (block size ``bs``) from COO entries, duplicates summed.
 
-
-def P_int():
-    return init().IntType
-
-
-def aij(rows, cols, vals, n, comm, prefix: str, scale: float = 1.0, bs: int = 1):
-    """Sequential-layout AIJ matrix from COO entries (block size ``bs``); options
-    prefix applied and setFromOptions called so -<prefix>mat_type etc. take effect."""
+    ``n`` local rows starting at global row ``first`` (``n_global`` rows in
+    all; default: one rank holds everything).  ``rows`` and ``cols`` are
+    global indices of this rank's rows only.  The type comes from the options
+    (-<prefix>mat_type): PETSc's COO assembly fills any matrix type, so every
+    type holds the same values."""
     P = init()
-    indptr, indices, data = coo_to_csr(rows, cols, scale * np.asarray(vals, dtype=float), n)
+    rows = np.asarray(rows, dtype=P.IntType)
+    cols = np.asarray(cols, dtype=P.IntType)
+    N = n if n_global is None else n_global
     A = P.Mat().create(comm=comm)
-    A.setSizes((n, n), bsize=bs)
+    A.setSizes(((n, N), (n, N)), bsize=bs)
     A.setType(P.Mat.Type.AIJ)
     A.setOptionsPrefix(prefix)
     A.setFromOptions()
-    A.setPreallocationCSR((indptr, indices, data))
+    if A.getType().endswith("sbaij"):
+        # symmetric storage keeps the upper triangle; the lower one is the same
+        A.setOption(P.Mat.Option.IGNORE_LOWER_TRIANGULAR, True)
+    A.setPreallocationCOO(rows, cols)
+    A.setValuesCOO(scale * np.asarray(vals, dtype=float), P.InsertMode.INSERT_VALUES)
     A.assemble()
     return A
 

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import model as model_mod
-from . import overlap, reference, stability
+from . import distribute, overlap, ranks, reference, stability
 from .coupling import SCHEMES
 from .dem import DemPartition
 from .gc import GravouilCombescure
-from .errors import LaunchError, RunFailed, SceneError, StabilityError
+from .errors import RunFailed, SceneError, StabilityError
 from .fem import FemPartition
 from .monitor import EnergyGuard, Probes
 from .petscutil import init
@@ -70,18 +70,16 @@ class Assembly:
             exchange.destroy()
 
 
+def owned_nonzeros(neighbours, owned, dof) -> int:
+    """Nonzeros of the owned rows of a partition's operator: (degree + 1) dof^2 per node."""
+    return int(sum(len(neighbours[n]) + 1 for n in owned.tolist())) * dof * dof
+
+
 def build(scene, comm, say=_silent) -> Assembly:
     """Check the launch and the steps, then build this rank's share of the run."""
-    from mpi4py import MPI
-
     init()
     rank, size = comm.rank, comm.size
     n_part = len(scene.partitions)
-    if size not in (1, n_part):
-        raise LaunchError(f"scene '{scene.name}' has {n_part} partitions: run it on 1 or "
-                          f"{n_part} ranks, not {size}")
-    rank_of = [0] * n_part if size == 1 else list(range(n_part))
-    local_ids = [p for p in range(n_part) if rank_of[p] == rank]
     scheme_cls = SCHEMES.get(scene.coupling.scheme)
     treatments = scheme_cls.treatments(scene) if scheme_cls else ["literal"] * n_part
     R = scene.system_ratio
@@ -95,21 +93,38 @@ def build(scene, comm, say=_silent) -> Assembly:
         scheme = GravouilCombescure(scene, mdl, comm)
         parts, layouts, freqs = scheme.parts, [p.layout for p in scheme.parts], scheme.freqs
     else:
-        layouts = overlap.derive(mdl.neighbours(), scene.partitions,
+        neighbours = mdl.neighbours()
+        layouts = overlap.derive(neighbours, scene.partitions,
                                  overlap.layer_counts(scene.partitions, treatments))
-        freqs, problems = check_stability(scene, mdl, layouts, local_ids)
+        costs = [ranks.cost(owned_nonzeros(neighbours, lay.owned, mdl.dof), R // p.ratio)
+                 for lay, p in zip(layouts, scene.partitions)]
+        assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts],
+                                  [p.ranks for p in scene.partitions])
+        for line in assignment.lines([p.name for p in scene.partitions]):
+            say(line)
+        local_ids = assignment.partitions_on(rank)
+        # each partition's bound once, on its first rank
+        freqs, problems = check_stability(scene, mdl, layouts,
+                                          [p for p in local_ids if assignment.ranks[p][0] == rank])
+        for chunk in comm.allgather(freqs):
+            freqs.update(chunk)
         problems = sum(comm.allgather(problems), [])
         if problems and scene.guard.stable_step:
             raise StabilityError(problems[0])
-        for problem in problems:
+        for problem in dict.fromkeys(problems):
             say(f"warning: {problem}; guard.stable_step is false, running anyway")
-        for warning in coupled_step_warnings(scene, comm.allgather(
-                {n: crit for n, (_, crit) in freqs.items()})):
+        for warning in coupled_step_warnings(scene, [{n: c for n, (_, c) in freqs.items()}]):
             say(f"warning: {warning}")
-        parts = [PARTITION_TYPES[scene.partitions[p].method](
-            scene.partitions[p], layouts[p], mdl, MPI.COMM_SELF, treatments[p], scene.time.dt, R,
-            scene.damping) for p in local_ids]
-        scheme = scheme_cls(comm, layouts, parts, mdl.dof, scene)
+        comms = ranks.communicators(comm, assignment)
+        dists = [distribute.split(lay, neighbours, len(assignment.ranks[p]))
+                 for p, lay in enumerate(layouts)]
+        parts = []
+        for p in local_ids:
+            piece = dists[p].pieces[assignment.ranks[p].index(rank)]
+            parts.append(PARTITION_TYPES[scene.partitions[p].method](
+                scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
+                scene.damping, dist=dists[p]))
+        scheme = scheme_cls(comm, dists, assignment, parts, mdl.dof, scene)
     lines = []
     for part in parts:
         fr, crit = freqs[part.name]
@@ -126,12 +141,13 @@ def build(scene, comm, say=_silent) -> Assembly:
             + ", ".join(f"{p.name} {t}" for p, t in zip(scene.partitions, treatments)))
     else:
         say(f"[solver]   {scheme.describe()}")
-    not_built = ["neighbour search (no contacts)"]
+    not_built = []
     if not any(p.integrator == "implicit" for p in scene.partitions):
-        not_built.insert(0, "KSP (all partitions explicit)")
+        not_built.append("KSP (all partitions explicit)")
     if not scheme.exchanges:
-        not_built.insert(0, "exchange (single partition)")
-    say(f"[solver]   not built: {', '.join(not_built)}")
+        not_built.append("exchange (single partition)")
+    if not_built:
+        say(f"[solver]   not built: {', '.join(not_built)}")
     scheme.initialise(mdl)
     return Assembly(mdl, layouts, parts, scheme, freqs)
 
@@ -174,11 +190,14 @@ def check_reference(scene):
         raise StabilityError(f"reference.dt: {problems[0]}")
 
 
-def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
-    """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output."""
+def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None = None) -> RunResult:
+    """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output.
+
+    ``restart``: an output file with a checkpoint of this scene; the run goes on
+    from there (on any rank count)."""
     from mpi4py import MPI
 
-    from . import output
+    from . import output, state
 
     t_start = time.perf_counter()
     comm = comm or MPI.COMM_WORLD
@@ -187,60 +206,52 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     problem = comm.bcast(output.check_writable(scene.output_file) if rank == 0 else None)
     if problem:
         raise SceneError(problem)
+    saved = state.read(restart, scene, comm) if restart else None
     if getattr(scene.reference, "kind", "") == "monolithic":
         check_reference(scene)
     asm = build(scene, comm, say)
-    mdl, parts, scheme, freqs = asm.model, asm.parts, asm.scheme, asm.freqs
+    mdl, parts, scheme = asm.model, asm.parts, asm.scheme
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
-    probes = Probes(scene.probes, {p.layout.index: p for p in parts}, owner, n_sys)
+    probes = Probes(scene.probes, parts, owner, n_sys)
     every = (scene.output.energy_every if scene.output and scene.output.energy_every
              else max(1, n_sys // 2000))
     guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound)
+    start = 0
+    if saved:
+        start = saved["step"]
+        state.restore(saved, parts, scheme, guard)
+        probes.restore(saved["probes"], start)
+        say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
+    report = Report(scene, asm, probes, guard, comm, scene_text, t_start)
+    checkpoint = None
+    spec = scene.output.checkpoint if scene.output else None
+    if spec:
+        meta = {"fingerprint": state.fingerprint(scene), "scene": scene.name}
+
+        def checkpoint(k, wall):
+            data = state.collect(k, parts, guard, comm)
+            result = report.result(k, "running", "", wall)
+            if rank == 0:
+                output.write(scene.output_file, result, checkpoint=(data, meta))
+        checkpoint.every = spec.every
+        checkpoint(start, 0.0)
 
     fields = None
     if scene.output and scene.output.fields:
         from .fields import FieldWriter
-        fields = FieldWriter(scene, mdl, parts, comm)
-        fields.write(0.0)
+        fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "")
+        fields.write(start * Dt)
     try:
         failure, done, loop_wall = step_loop(scene, scheme, probes, guard,
-                                             say if rank == 0 else None, fields)
+                                             say if rank == 0 else None, fields, start, checkpoint)
     finally:
         if fields:
             fields.close()
 
-    # ---- gather results on every rank (small: probes and attributes)
-    x_wall = scheme.clocks.exchange_wall
-    local_parts = {part.name: {
-        "method": part.method, "integrator": part.integrator.describe(),
-        "ratio": part.spec.ratio, "dt": part.dt, "steps": part.steps, "wall_time": part.wall,
-        "n_owned": part.layout.n_owned, "n_external": int(part.layout.external.size),
-        "layers": len(part.layout.layers), "boundary": part.layout.boundary,
-        "omega_max": freqs[part.name][0].omega_max,
-        "critical_step": freqs[part.name][1],
-        "exchange_wall_time": x_wall} for part in parts}
-    t_axis = np.arange(n_sys + 1) * Dt
-    gathered, part_attrs = {}, {}
-    for pr, pa in comm.allgather((probes.histories(t_axis, done), local_parts)):
-        gathered.update(pr)
-        part_attrs.update(pa)
-    histories = {p.name: gathered[p.name] for p in scene.probes}
-    part_attrs = {p.name: part_attrs[p.name] for p in scene.partitions}
-
-    status = "failed" if failure else "completed"
-    attrs = {"scene": scene.name, "status": status, "message": failure or "", "ranks": size,
-             "wall_time": time.perf_counter() - t_start, "stepping_wall_time": loop_wall,
-             "exchange_wall_time": max(comm.allgather(x_wall)),
-             "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
-             "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
-             "t_end": done * Dt, "reference": reference_label(scene), "scene_yaml": scene_text}
-    for name, pa in part_attrs.items():
-        attrs[f"steps_{name}"] = pa["steps"]
-        attrs[f"wall_time_{name}"] = pa["wall_time"]
-    result = RunResult(attrs, part_attrs, histories, guard.arrays())
-    if scene.reference != "none" and not failure and histories:
+    result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
+    if scene.reference != "none" and not failure and result.probes:
         add_reference(result, mdl, scene, comm, say)
     asm.destroy()
     if rank == 0:
@@ -251,17 +262,71 @@ def run(scene, comm=None, log=print, scene_text: str = "") -> RunResult:
     return result
 
 
-def step_loop(scene, scheme, probes, guard, say, fields=None):
-    """Advance system steps to the end or the first guard failure.
+class Report:
+    """The run's results so far (probes, energies, partition attributes),
+    gathered on every rank: for checkpoints and the final output."""
+
+    def __init__(self, scene, asm, probes, guard, comm, scene_text, t_start):
+        self.scene, self.asm, self.probes, self.guard = scene, asm, probes, guard
+        self.comm, self.scene_text, self.t_start = comm, scene_text, t_start
+
+    def result(self, done: int, status: str, message: str, loop_wall: float) -> RunResult:
+        scene, comm, parts = self.scene, self.comm, self.asm.parts
+        freqs = self.asm.freqs
+        n_sys, Dt = scene.n_system_steps, scene.system_dt
+        x_wall = self.asm.scheme.clocks.exchange_wall
+        local_parts = {part.name: {
+            "method": part.method, "integrator": part.integrator.describe(),
+            "ratio": part.spec.ratio, "dt": part.dt, "steps": part.steps, "wall_time": part.wall,
+            "n_owned": part.layout.n_owned, "n_external": int(part.layout.external.size),
+            "layers": len(part.layout.layers), "boundary": part.layout.boundary,
+            "omega_max": freqs[part.name][0].omega_max,
+            "critical_step": freqs[part.name][1],
+            "exchange_wall_time": x_wall} for part in parts}
+        t_axis = np.arange(n_sys + 1) * Dt
+        gathered, part_attrs = {}, {}
+        for pr, pa in comm.allgather((self.probes.histories(t_axis, done), local_parts)):
+            gathered.update(pr)
+            for name, attrs in pa.items():       # pieces of one partition on several ranks
+                if name in part_attrs:
+                    merged = part_attrs[name]
+                    merged["ranks"] += 1
+                    for key in ("n_owned", "n_external"):
+                        merged[key] += attrs[key]
+                    merged["boundary"] = np.sort(np.concatenate([merged["boundary"],
+                                                                 attrs["boundary"]]))
+                    for key in ("wall_time", "exchange_wall_time"):
+                        merged[key] = max(merged[key], attrs[key])
+                else:
+                    part_attrs[name] = {**attrs, "ranks": 1}
+        histories = {p.name: gathered[p.name] for p in scene.probes}
+        part_attrs = {p.name: part_attrs[p.name] for p in scene.partitions}
+        attrs = {"scene": scene.name, "status": status, "message": message, "ranks": comm.size,
+                 "wall_time": time.perf_counter() - self.t_start, "stepping_wall_time": loop_wall,
+                 "exchange_wall_time": max(comm.allgather(x_wall)),
+                 "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
+                 "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
+                 "t_end": done * Dt, "reference": reference_label(scene),
+                 "scene_yaml": self.scene_text}
+        for name, pa in part_attrs.items():
+            attrs[f"steps_{name}"] = pa["steps"]
+            attrs[f"wall_time_{name}"] = pa["wall_time"]
+        return RunResult(attrs, part_attrs, histories, self.guard.arrays())
+
+
+def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoint=None):
+    """Advance system steps from ``start`` to the end or the first guard failure;
+    ``checkpoint(k, wall)`` every ``checkpoint.every`` system steps.
 
     Returns (failure message or None, system steps done, stepping wall time)."""
     n_sys, Dt = scene.n_system_steps, scene.system_dt
     progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
     every = guard.every
+    ck_every = checkpoint.every if checkpoint else 0
     clock = time.perf_counter
     t_loop = last = clock()
-    failure, k = None, 0
-    for s in range(n_sys):
+    failure, k = None, start
+    for s in range(start, n_sys):
         scheme.step(s * Dt)
         k = s + 1
         probes.record(k)
@@ -271,10 +336,12 @@ def step_loop(scene, scheme, probes, guard, say, fields=None):
             failure = guard.check(k)
             if failure:
                 break
+        if ck_every and k % ck_every == 0 and k < n_sys:
+            checkpoint(k, clock() - t_loop)
         if progress and (k & 255) == 0 and clock() - last >= progress:
             last = clock()
-            frac, el = k / n_sys, last - t_loop
-            say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * frac:.0f}%), "
+            frac, el = (k - start) / (n_sys - start), last - t_loop
+            say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
                 f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
     return failure, k, clock() - t_loop
 

@@ -273,6 +273,8 @@ class Partition:
                             "owns (nodes shared with an earlier partition stay there)", None)
     beta: float = key("Newmark beta (explicit and implicit integrators)", 0.25, nonnegative=True)
     gamma: float = key("Newmark gamma (explicit and implicit integrators)", 0.5, positive=True)
+    ranks: int | None = key("MPI ranks serving this partition (default: the run's ranks shared "
+                            "by estimated cost; see README, Ranks)", None, positive=True)
 
     SUPPORTED = {("fem", "explicit"), ("fem", "implicit"), ("dem", "verlet")}
 
@@ -382,6 +384,13 @@ class Fields:
 
 
 @dataclass(frozen=True)
+class Checkpoint:
+    every: int = key("system steps between checkpoints: the whole run state goes into the "
+                     "output file (atomically, status running); --restart FILE continues from it",
+                     positive=True)
+
+
+@dataclass(frozen=True)
 class Output:
     file: str = key("HDF5 output path, relative to the working directory")
     fields: Fields | None = key("continuum models: XDMF time series of the mesh fields "
@@ -392,6 +401,8 @@ class Output:
         None, positive=True)
     progress: float = key("seconds between progress lines on rank 0 (0: none)", 10.0,
                           nonnegative=True)
+    checkpoint: Checkpoint | None = key("write the run state into the output file every so "
+                                        "many system steps", None)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,107 @@
+"""A partition's nodes distributed over its ranks: one *piece* per rank.
+
+The partition's owned nodes are put in reverse Cuthill-McKee order (PETSc's
+``rcm`` ordering of the node graph: small bandwidth, so MatMult reads its
+vector nearly in order) and cut into contiguous chunks of equal size, one per
+rank: for bars and chains the chunks are slabs with small interfaces.  Each
+external node (a copy of another partition's node) is held by the piece that
+holds a neighbour of it in the layer before (the lowest such piece).
+
+A piece is a :class:`~solver.overlap.Layout` whose ``owned`` are its chunk
+(in RCM order) and whose layers are its external nodes, so local vectors are
+``[owned | external]`` on every rank.  The partition's distributed numbering
+puts piece 0's held nodes first, then piece 1's, and so on; ghosts *within*
+the partition (rows that need another piece's nodes) are PETSc's business
+(parallel AIJ), refreshed at every MatMult.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .overlap import Layout
+
+
+@dataclass(frozen=True)
+class Piece(Layout):
+    piece: int = 0                # rank within the partition
+    pieces: int = 1               # ranks of the partition
+    start: int = 0                # first held node in the partition's distributed numbering
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """The pieces of one partition and its distributed node numbering."""
+
+    layout: Layout                # the whole partition
+    pieces: tuple[Piece, ...]
+    number: np.ndarray            # [n_nodes] distributed index of every held node, -1 elsewhere
+
+    @property
+    def n_held(self) -> int:
+        return self.layout.n_held
+
+
+def rcm(nodes: np.ndarray, neighbours) -> np.ndarray:
+    """``nodes`` in reverse Cuthill-McKee order of the graph they induce."""
+    from .petscutil import init
+    n = nodes.size
+    if n <= 2:
+        return nodes.copy()
+    P = init()
+    local = {int(g): i for i, g in enumerate(nodes)}
+    rows, cols = [np.arange(n)], [np.arange(n)]
+    for i, g in enumerate(nodes):
+        nb = [local[int(m)] for m in neighbours[g] if int(m) in local]
+        rows.append(np.full(len(nb), i))
+        cols.append(np.asarray(nb, dtype=np.int64))
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    G = P.Mat().createAIJ((n, n), comm=P.COMM_SELF)
+    G.setPreallocationCOO(r.astype(P.IntType), c.astype(P.IntType))
+    G.setValuesCOO(np.ones(r.size))
+    G.assemble()
+    perm, _ = G.getOrdering("rcm")
+    order = perm.getIndices().copy()
+    perm.destroy()
+    G.destroy()
+    return nodes[order]
+
+
+def split(layout: Layout, neighbours, k: int, order=True) -> Distribution:
+    """Distribute ``layout`` over ``k`` ranks (k = 1: one piece, RCM order)."""
+    owned = rcm(layout.owned, neighbours) if order else layout.owned
+    n = owned.size
+    sizes = [n // k + (1 if r < n % k else 0) for r in range(k)]
+    cuts = np.concatenate([[0], np.cumsum(sizes)])
+    piece_of = {}
+    for r in range(k):
+        for g in owned[cuts[r]:cuts[r + 1]]:
+            piece_of[int(g)] = r
+    ext_layers = [[[] for _ in range(k)] for _ in layout.layers]
+    for li, layer in enumerate(layout.layers):
+        placed = {}
+        for g in layer.tolist():
+            prev = [piece_of[int(m)] for m in neighbours[g] if int(m) in piece_of]
+            r = min(prev) if prev else 0
+            ext_layers[li][r].append(g)
+            placed[g] = r
+        piece_of.update(placed)              # a layer's nodes place the next layer's
+    owner_of = dict(zip(layout.external.tolist(), layout.external_owner.tolist()))
+    boundary = set(layout.boundary.tolist())
+    pieces, start = [], 0
+    number = np.full(len(neighbours), -1, dtype=np.int64)
+    for r in range(k):
+        own = owned[cuts[r]:cuts[r + 1]]
+        layers = tuple(np.array(sorted(ext_layers[li][r]), dtype=np.int64)
+                       for li in range(len(layout.layers)))
+        layers = tuple(l for l in layers if l.size) if k > 1 else layers
+        ext = np.concatenate(layers) if layers else np.zeros(0, dtype=np.int64)
+        is_b = np.array([g in boundary for g in own.tolist()], dtype=bool)
+        piece = Piece(layout.name, layout.index, own, own[is_b], own[~is_b], layers,
+                      np.array([owner_of[g] for g in ext.tolist()], dtype=np.int64),
+                      piece=r, pieces=k, start=start)
+        number[piece.held] = start + np.arange(piece.n_held)
+        start += piece.n_held
+        pieces.append(piece)
+    return Distribution(layout, tuple(pieces), number)

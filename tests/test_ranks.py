@@ -1,0 +1,44 @@
+"""Rank assignment: by estimated cost, as the scene says, or shared when short."""
+import re
+
+import pytest
+
+from solver.errors import LaunchError
+from solver.ranks import assign
+
+
+def test_one_rank_each_and_the_rest_by_cost():
+    a = assign(8, [300.0, 100.0], [1000, 1000], [None, None])
+    assert [len(r) for r in a.ranks] == [6, 2]
+    assert a.ranks == (tuple(range(6)), (6, 7))          # disjoint and contiguous
+    assert a.partitions_on(5) == [0] and a.partitions_on(6) == [1]
+
+
+def test_a_partition_never_gets_more_ranks_than_nodes():
+    a = assign(6, [1000.0, 1.0], [2, 100], [None, None])
+    assert [len(r) for r in a.ranks] == [2, 4]
+    a = assign(6, [1.0, 1.0], [2, 2], [None, None])      # only 4 useful ranks
+    assert [len(r) for r in a.ranks] == [2, 2] and "2 rank(s) idle" in a.how
+
+
+def test_fewer_ranks_than_partitions_share_by_cost():
+    a = assign(2, [5.0, 4.0, 3.0, 2.0], [9] * 4, [None] * 4)
+    assert all(len(r) == 1 for r in a.ranks)
+    assert a.partitions_on(0) == [0, 3] and a.partitions_on(1) == [1, 2]   # loads 7 and 7
+
+
+def test_ranks_from_the_scene():
+    a = assign(5, [1.0, 100.0, 1.0], [50] * 3, [3, None, None])
+    assert [len(r) for r in a.ranks] == [3, 1, 1]
+    a = assign(4, [1.0, 1.0], [50, 50], [1, 3])
+    assert a.ranks == ((0,), (1, 2, 3))
+
+
+@pytest.mark.parametrize("size,requested,words", [
+    (4, [1, 2], "add up to 3 (partitions[0].ranks = 1, partitions[1].ranks = 2) but 4 ranks"),
+    (2, [2, None], "3 in all, but 2 were launched; run with -n 3"),
+    (100, [60, None], "partitions[0].ranks: 60 ranks for 50 owned nodes"),
+])
+def test_ranks_that_do_not_fit_are_refused(size, requested, words):
+    with pytest.raises(LaunchError, match=re.escape(words)):
+        assign(size, [1.0, 1.0], [50, 50], requested)

@@ -1,0 +1,112 @@
+"""Checkpoint and restart: a run killed with SIGKILL and restarted from its last
+checkpoint ends bitwise identical to the uninterrupted run (same rank count) and
+within 1e-12 on another rank count; the output file is valid at every instant;
+bad restart files are refused with one line, exit 2, the file untouched."""
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import ROOT, mpiexec, raw_scene, run_cli, write_scene
+
+
+def scene(tmp_path, name, every=4000):
+    raw = raw_scene("six_dof")
+    raw["name"] = name
+    raw["output"] = {"file": str(tmp_path / f"{name}.h5"), "checkpoint": {"every": every},
+                     "progress": 0}
+    return write_scene(tmp_path / f"{name}.yaml", raw)
+
+
+def histories(path):
+    with h5py.File(path) as f:
+        assert f.attrs["status"] == "completed"
+        return {"u": f["probes/x3/displacement"][()], "v": f["probes/x3/velocity"][()],
+                "E": f["energy/total"][()], "W": f["energy/external_work"][()],
+                "steps": f.attrs["n_system_steps"], "has_checkpoint": "checkpoint" in f}
+
+
+def kill_after_checkpoint(cmd, out, at_least):
+    """Start ``cmd``, SIGKILL it once ``out`` holds a checkpoint at step >= at_least."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 120
+    step = -1
+    while time.time() < deadline and proc.poll() is None:
+        try:
+            with h5py.File(out, "r") as f:          # must be readable at every instant
+                assert f.attrs["status"] in ("running", "completed")
+                step = int(f["checkpoint"].attrs["step"]) if "checkpoint" in f else step
+        except FileNotFoundError:
+            pass
+        if step >= at_least:
+            os.killpg(proc.pid, signal.SIGKILL)
+            break
+        time.sleep(0.005)
+    proc.wait(timeout=30)
+    assert step >= at_least, "the run ended before it could be killed"
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "running"
+        return int(f["checkpoint"].attrs["step"])
+
+
+@pytest.mark.parametrize("n_first,n_restart", [(1, 1), (2, 2), (1, 2)])
+def test_killed_run_restarts_to_the_same_histories(tmp_path, n_first, n_restart):
+    ref = scene(tmp_path, "whole")
+    assert run_cli([ref]).returncode == 0
+    whole = histories(tmp_path / "whole.h5")
+    assert not whole["has_checkpoint"]             # a completed file carries no checkpoint
+    cut = scene(tmp_path, "cut")
+    out = tmp_path / "cut.h5"
+    cmd = [sys.executable, "-m", "solver", str(cut)]
+    if n_first > 1:
+        cmd = [mpiexec(), "-n", str(n_first), *cmd]
+    step = kill_after_checkpoint(cmd, out, 4000)
+    assert 4000 <= step < 40000 and step % 4000 == 0
+    proc = run_cli([cut, "--restart", out], n=n_restart if n_restart > 1 else None)
+    assert proc.returncode == 0, proc.stderr
+    assert f"restarted from {out} at system step {step}" in proc.stdout
+    again = histories(out)
+    assert again["steps"] == whole["steps"] == 40000
+    for key in ("u", "v", "E", "W"):
+        if n_first == n_restart:
+            assert np.array_equal(again[key], whole[key]), key          # bitwise
+        else:
+            scale = np.abs(whole[key]).max()
+            assert np.abs(again[key] - whole[key]).max() <= 1e-12 * scale, key
+
+
+def sha(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_bad_restart_files_are_refused(tmp_path):
+    cut = scene(tmp_path, "cut")
+    out = tmp_path / "cut.h5"
+    step = kill_after_checkpoint([sys.executable, "-m", "solver", str(cut)], out, 4000)
+    assert step >= 4000
+    good = sha(out)
+    other = scene(tmp_path, "other")
+    cases = [
+        ([cut, "--restart", tmp_path / "missing.h5"], "missing.h5: file not found"),
+        ([cut, "--restart", cut], "not a readable checkpoint"),
+        ([other, "--set", "partitions.fem.ratio=10", "--restart", out],
+         "written for scene 'cut' with other model, partitions, steps or loads"),
+        ([cut, "--set", "time.end=0.4", "--restart", out], "beyond time.end"),
+    ]
+    trunc = tmp_path / "trunc.h5"
+    trunc.write_bytes(out.read_bytes()[:4096])
+    cases.append(([cut, "--restart", trunc], "not a readable checkpoint"))
+    for args, words in cases:
+        proc = run_cli(args)
+        assert proc.returncode == 2, (args, proc.stderr)
+        assert words in proc.stderr and "Traceback" not in proc.stderr, (args, proc.stderr)
+        assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+        assert sha(out) == good                      # the restart file is untouched
