@@ -70,6 +70,39 @@ class ContinuumArrays:
             vals.append(v)
         return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
 
+    def _held(self, held):
+        inh = np.zeros(self.n_nodes, bool)
+        inh[held] = True
+        return inh
+
+    def _cell_blocks(self, cells, held) -> list:
+        inh = self._held(held)
+        out = []
+        for _, conn, Ke in cells:
+            keep = np.all(inh[conn], axis=1)
+            out.append((conn, Ke) if keep.all() else (conn[keep], Ke[keep]))   # no copy when all
+        return out
+
+    def stiffness_blocks(self, held: np.ndarray) -> list:
+        """Block sets (global node ids) of the body cells whose nodes are all held."""
+        return self._cell_blocks(self.cells, held)
+
+    def bond_blocks(self, held: np.ndarray) -> list:
+        """Block sets of the lattice bonds whose ends are held (k n n^T [[1, -1],
+        [-1, 1]]) and of the overlap cells, which both sides share."""
+        out = []
+        if self.bonds:
+            bi, bj, k = self.bonds
+            inh = self._held(held)
+            keep = inh[bi] & inh[bj]
+            bi, bj, k = bi[keep], bj[keep], k[keep]
+            n = self.points[bj] - self.points[bi]
+            n = n / np.linalg.norm(n, axis=1)[:, None]
+            nn = k[:, None, None] * np.einsum("bi,bj->bij", n, n)
+            Ke = np.block([[nn, -nn], [-nn, nn]])
+            out.append((np.stack([bi, bj], axis=1), Ke))
+        return out + self._cell_blocks(self.overlap_cells, held)
+
     def neighbours(self) -> list[np.ndarray]:
         pairs = []
         for _, conn, _ in self.cells:
@@ -80,9 +113,11 @@ class ContinuumArrays:
         if self.bonds:
             bi, bj, _ = self.bonds
             pairs.append(np.stack([np.concatenate([bi, bj]), np.concatenate([bj, bi])]))
-        a, b = np.unique(np.concatenate(pairs, axis=1), axis=1)
+        n = np.int64(self.n_nodes)
+        key = np.unique(np.concatenate([p[0] * n + p[1] for p in pairs]))
+        a, b = key // n, key % n
         cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
-        return [b[cuts[n]:cuts[n + 1]] for n in range(self.n_nodes)]
+        return np.split(b, cuts[1:-1])
 
     def stiffness_triplets(self, held: np.ndarray):
         """COO stiffness over the held nodes (local DOF numbering) from the cells

@@ -24,7 +24,7 @@ class DemPartition(Partition):
             "acceleration": self.A.reshape(n_p, dof),
             "global_id": layout.held,
         }
-        B = self.operator(model.bond_triplets(self.whole_held()), scale=-1.0)
+        B = self.operator(model.bond_blocks(self.whole_held()), scale=-1.0)
         B.setName(f"{self.name}_bonds")
         self.built = [f"particles {n_p} ({layout.n_owned} owned), fields "
                       f"{', '.join(self.fields)}",

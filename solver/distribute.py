@@ -50,13 +50,14 @@ def rcm(nodes: np.ndarray, neighbours) -> np.ndarray:
     if n <= 2:
         return nodes.copy()
     P = init()
-    local = {int(g): i for i, g in enumerate(nodes)}
-    rows, cols = [np.arange(n)], [np.arange(n)]
-    for i, g in enumerate(nodes):
-        nb = [local[int(m)] for m in neighbours[g] if int(m) in local]
-        rows.append(np.full(len(nb), i))
-        cols.append(np.asarray(nb, dtype=np.int64))
-    r, c = np.concatenate(rows), np.concatenate(cols)
+    local = np.full(len(neighbours), -1, dtype=np.int64)
+    local[nodes] = np.arange(n)
+    nbs = [neighbours[g] for g in nodes.tolist()]
+    r = np.repeat(np.arange(n), [len(x) for x in nbs])
+    c = local[np.concatenate(nbs)] if nbs else np.zeros(0, dtype=np.int64)
+    inside = c >= 0
+    r = np.concatenate([np.arange(n), r[inside]])
+    c = np.concatenate([np.arange(n), c[inside]])
     G = P.Mat().createAIJ((n, n), comm=P.COMM_SELF)
     G.setPreallocationCOO(r.astype(P.IntType), c.astype(P.IntType))
     G.setValuesCOO(np.ones(r.size))
@@ -74,33 +75,33 @@ def split(layout: Layout, neighbours, k: int, order=True) -> Distribution:
     n = owned.size
     sizes = [n // k + (1 if r < n % k else 0) for r in range(k)]
     cuts = np.concatenate([[0], np.cumsum(sizes)])
-    piece_of = {}
-    for r in range(k):
-        for g in owned[cuts[r]:cuts[r + 1]]:
-            piece_of[int(g)] = r
-    ext_layers = [[[] for _ in range(k)] for _ in layout.layers]
-    for li, layer in enumerate(layout.layers):
-        placed = {}
-        for g in layer.tolist():
-            prev = [piece_of[int(m)] for m in neighbours[g] if int(m) in piece_of]
-            r = min(prev) if prev else 0
-            ext_layers[li][r].append(g)
-            placed[g] = r
-        piece_of.update(placed)              # a layer's nodes place the next layer's
-    owner_of = dict(zip(layout.external.tolist(), layout.external_owner.tolist()))
-    boundary = set(layout.boundary.tolist())
+    n_nodes = len(neighbours)
+    piece_of = np.full(n_nodes, -1, dtype=np.int64)
+    piece_of[owned] = np.repeat(np.arange(k), sizes)
+    ext_piece = []
+    for layer in layout.layers:
+        # the lowest piece among a node's neighbours already placed (owned or earlier layers)
+        placed = np.zeros(layer.size, dtype=np.int64)
+        for i, g in enumerate(layer.tolist()):
+            prev = piece_of[neighbours[g]]
+            prev = prev[prev >= 0]
+            placed[i] = prev.min() if prev.size else 0
+        piece_of[layer] = placed             # a layer's nodes place the next layer's
+        ext_piece.append(placed)
+    owner_of = np.full(n_nodes, -1, dtype=np.int64)
+    owner_of[layout.external] = layout.external_owner
+    is_boundary = np.zeros(n_nodes, bool)
+    is_boundary[layout.boundary] = True
     pieces, start = [], 0
-    number = np.full(len(neighbours), -1, dtype=np.int64)
+    number = np.full(n_nodes, -1, dtype=np.int64)
     for r in range(k):
         own = owned[cuts[r]:cuts[r + 1]]
-        layers = tuple(np.array(sorted(ext_layers[li][r]), dtype=np.int64)
-                       for li in range(len(layout.layers)))
+        layers = tuple(np.sort(layer[where == r]) for layer, where in zip(layout.layers, ext_piece))
         layers = tuple(l for l in layers if l.size) if k > 1 else layers
         ext = np.concatenate(layers) if layers else np.zeros(0, dtype=np.int64)
-        is_b = np.array([g in boundary for g in own.tolist()], dtype=bool)
+        is_b = is_boundary[own]
         piece = Piece(layout.name, layout.index, own, own[is_b], own[~is_b], layers,
-                      np.array([owner_of[g] for g in ext.tolist()], dtype=np.int64),
-                      piece=r, pieces=k, start=start)
+                      owner_of[ext], piece=r, pieces=k, start=start)
         number[piece.held] = start + np.arange(piece.n_held)
         start += piece.n_held
         pieces.append(piece)

@@ -103,6 +103,15 @@ class Elastic:
         D[np.arange(3, 6), np.arange(3, 6)] = mu
         return D
 
+    def lame(self) -> tuple[float, float]:
+        """(lambda, mu) of the in-plane or 3D law; plane stress uses
+        lambda* = 2 lambda mu / (lambda + 2 mu), so D matches :meth:`D`."""
+        E, nu = self.E, self.nu
+        mu = E / (2 * (1 + nu))
+        if self.kind == "plane_stress":
+            return E * nu / (1 - nu ** 2), mu
+        return E * nu / ((1 + nu) * (1 - 2 * nu)), mu
+
     def measure(self) -> float:
         """Out-of-plane factor of the volume integral (thickness in 2D)."""
         return self.thickness if self.kind == "plane_stress" else 1.0
@@ -112,6 +121,7 @@ class BadElement(ValueError):
     def __init__(self, index: int, detj: float):
         super().__init__(f"element {index} is inverted or degenerate (Jacobian determinant {detj:.3g})")
         self.index = index
+        self.detj = detj
 
 
 def _geometry(family: Family, X: np.ndarray):
@@ -146,15 +156,34 @@ def strain_matrix(dNdx: np.ndarray) -> np.ndarray:
     return B.reshape(e, q, B.shape[2], a * d)
 
 
+CHUNK = 8192        # elements per kernel call (bounds the temporaries)
+
+
 def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
-    """Element stiffness matrices K_e [n_el, n_nodes*dim, n_nodes*dim]."""
-    _, dNdx, wdet = _geometry(family, X)
-    B = strain_matrix(dNdx)                                   # [e, q, s, nd]
-    DB = np.matmul(material.D(), B)                           # D B per quadrature point
-    DB *= (material.measure() * wdet)[:, :, None, None]
-    e, q, s, nd = B.shape
-    # K_e = sum_q B_q^T (w detJ D) B_q as one batched product over (q, s)
-    return np.matmul(B.reshape(e, q * s, nd).transpose(0, 2, 1), DB.reshape(e, q * s, nd))
+    """Element stiffness matrices K_e [n_el, n_nodes*dim, n_nodes*dim].
+
+    For an isotropic material (every Elastic is) in Lame form,
+    K_ab,ij = sum_q w detJ (lam N_a,i N_b,j + mu N_a,j N_b,i + mu delta_ij N_a,k N_b,k),
+    which is B^T D B without forming B: one batched (n_q) product per element."""
+    n_el, k = X.shape[0], family.n_nodes
+    d = family.dim
+    lam, mu = material.lame()
+    scale = material.measure()
+    K = np.empty((n_el, k * d, k * d))
+    for s in range(0, n_el, CHUNK):
+        try:
+            _, dNdx, wdet = _geometry(family, X[s:s + CHUNK])
+        except BadElement as e:
+            raise BadElement(e.index + s, e.detj) from None
+        e = dNdx.shape[0]
+        g = dNdx.reshape(e, -1, k * d)                               # [e, q, (a, i)]
+        T = np.matmul(g.transpose(0, 2, 1), g * (scale * wdet)[:, :, None])   # [e, (a,i), (b,j)]
+        T = T.reshape(e, k, d, k, d)
+        Ke = lam * T + mu * T.transpose(0, 1, 4, 3, 2)               # lam N_a,i N_b,j + mu N_a,j N_b,i
+        tr = np.einsum("eakbk->eab", T)                              # grad N_a . grad N_b
+        Ke += mu * tr[:, :, None, :, None] * np.eye(d)[None, None, :, None, :]
+        K[s:s + CHUNK] = Ke.reshape(e, k * d, k * d)
+    return K
 
 
 def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:

@@ -17,37 +17,32 @@ import numpy as np
 
 from .errors import RunFailed
 from .partition import Partition
-from .petscutil import aij, init, vec_on
+from .petscutil import init, vec_on
 
 
 class FemPartition(Partition):
     method = "fem"
 
     def build_operator(self, model, layout):
-        rows, cols, vals = self.distributed(*model.stiffness_triplets(self.whole_held()))
-        K = aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=-1.0,
-                bs=self.dof, n_global=self.n_global, first=self.first)
+        blocks = model.stiffness_blocks(self.whole_held())
+        K = self.operator(blocks, scale=-1.0)
         K.setName(f"{self.name}_stiffness")
         n = K.getSize()[0]
         self.built = [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
                       f"type {K.getType()}, block size {K.getBlockSize()})", "lumped mass"]
         if self.integrator.name == "implicit":
-            self._build_solver(rows, cols, vals)
+            self._build_solver(blocks)
         return K
 
-    def _build_solver(self, rows, cols, vals):
+    def _build_solver(self, blocks):
         P = init()
         n = self.held_dofs.size
         h = self.dt
-        diag = self.first + np.arange(n)
         beta, gamma = self.integrator.beta, self.integrator.gamma
         a_r, b_r = (self.damping.alpha, self.damping.beta) if self.damping else (0.0, 0.0)
         # K_eff = M + gamma h C + beta h^2 K with C = a_r M + b_r K
-        K_eff = aij(np.concatenate([rows, diag]), np.concatenate([cols, diag]),
-                    np.concatenate([(beta * h * h + gamma * h * b_r) * np.asarray(vals),
-                                    (1.0 + gamma * h * a_r) * self.mass]),
-                    n, self.comm, self.prefix, bs=self.dof, n_global=self.n_global,
-                    first=self.first)
+        K_eff = self.operator(blocks, scale=beta * h * h + gamma * h * b_r,
+                              diagonal=(1.0 + gamma * h * a_r) * self.mass, solved=True)
         K_eff.setName(f"{self.name}_effective")
         self._mats = [K_eff]
         m = self._solve[0].getLocalSize()

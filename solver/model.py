@@ -74,6 +74,25 @@ class Model:
         keep = (li != -2) & (lj != -2)
         return li[keep], lj[keep], self.spring_k[keep]
 
+    def stiffness_blocks(self, held: np.ndarray) -> list:
+        """Block sets (global node ids) of the springs whose ends are held:
+        [[k, -k], [-k, k]] between nodes, [[k]] to the ground."""
+        inh = np.zeros(self.n_nodes + 1, bool)          # slot -1: the ground is always held
+        inh[held] = True
+        inh[-1] = True
+        si, sj, k = self.spring_i, self.spring_j, self.spring_k
+        keep = inh[si] & inh[sj]
+        both = keep & (si >= 0) & (sj >= 0)
+        ground = keep & ((si < 0) != (sj < 0))
+        pair = np.array([[1.0, -1.0], [-1.0, 1.0]])
+        out = [(np.stack([si[both], sj[both]], axis=1), k[both][:, None, None] * pair)]
+        if ground.any():
+            end = np.where(si[ground] >= 0, si[ground], sj[ground])
+            out.append((end[:, None], k[ground][:, None, None] * np.ones((1, 1))))
+        return out
+
+    bond_blocks = stiffness_blocks          # a dem partition of a network applies the springs
+
     def bond_triplets(self, held: np.ndarray):
         """COO stiffness of the springs a dem partition holding ``held`` applies."""
         return spring_triplets(*self.springs_within(held))

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 from pathlib import Path
 
 import numpy as np
@@ -31,12 +30,10 @@ def reference_scene(scene):
 
 
 def _key(scene) -> str:
-    net = scene.model.network
-    h = hashlib.sha256()
-    for arr in (net.mass, net.spring_i, net.spring_j, net.stiffness):
-        h.update(np.ascontiguousarray(arr).tobytes())
-    h.update(json.dumps([repr(scene.loads), repr(scene.initial), repr(scene.probes),
-                         scene.reference.dt, scene.reference.integrator, scene.time.end]).encode())
+    """Everything the reference history depends on: the scene's fingerprint
+    (model, loads, probes, reference; networks and continua alike) and time.end."""
+    from .state import fingerprint
+    h = hashlib.sha256(f"{fingerprint(scene)} {scene.time.end!r}".encode())
     return h.hexdigest()[:20]
 
 

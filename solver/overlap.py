@@ -66,20 +66,29 @@ def derive(neighbours: list[np.ndarray], partitions, n_layers) -> list[Layout]:
     neighbours: adjacency of every node; partitions: objects with ``name`` and
     ``nodes``; n_layers: number of external layers of each partition.
     """
-    owner = owner_map(len(neighbours), partitions)
+    n = len(neighbours)
+    owner = owner_map(n, partitions)
+    degree = np.array([len(x) for x in neighbours], dtype=np.int64)
+    row = np.repeat(np.arange(n), degree)
+    col = np.concatenate(neighbours) if n else np.zeros(0, dtype=np.int64)
     layouts = []
     for p, part in enumerate(partitions):
         owned = np.unique(np.asarray(part.nodes, dtype=np.int64))
-        is_b = np.array([bool(np.any(owner[neighbours[n]] != p)) for n in owned], dtype=bool)
-        seen = set(owned.tolist())
+        foreign = np.zeros(n, bool)                       # nodes with a neighbour of another owner
+        foreign[row[owner[col] != p]] = True
+        is_b = foreign[owned]
+        seen = np.zeros(n, bool)
+        seen[owned] = True
         front, layers = owned, []
         for _ in range(n_layers[p]):
-            nxt = {int(m) for n in front for m in neighbours[n]} - seen
-            if not nxt:
+            in_front = np.zeros(n, bool)
+            in_front[front] = True
+            nxt = np.unique(col[in_front[row]])
+            layer = nxt[~seen[nxt]]
+            if not layer.size:
                 break
-            layer = np.array(sorted(nxt), dtype=np.int64)
             layers.append(layer)
-            seen |= nxt
+            seen[layer] = True
             front = layer
         ext = np.concatenate(layers) if layers else np.zeros(0, dtype=np.int64)
         layouts.append(Layout(part.name, p, owned, owned[is_b], owned[~is_b], tuple(layers),

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import integrators
-from .petscutil import aij, vec_on
+from .petscutil import vec_on
 
 
 class LoadGroup:
@@ -141,24 +141,19 @@ class Partition:
     def build_operator(self, model, layout):
         raise NotImplementedError
 
-    def distributed(self, rows, cols, vals):
-        """COO entries over the partition's held nodes (``dist.layout.held``
-        numbering) -> this rank's rows in the distributed numbering."""
-        if self.dist is None:
-            return rows, cols, np.asarray(vals, dtype=float)
-        dof = self.dof
-        num = self.dist.number[self.dist.layout.held]
-        gr = num[rows // dof] * dof + rows % dof
-        mine = (gr >= self.first) & (gr < self.first + self.held_dofs.size)
-        cols = cols[mine]
-        return gr[mine], num[cols // dof] * dof + cols % dof, np.asarray(vals, dtype=float)[mine]
-
-    def operator(self, triplets, scale=1.0):
-        """This rank's share of a matrix over the partition from COO entries
-        over the partition's held nodes; options prefix and type from the options."""
-        rows, cols, vals = self.distributed(*triplets)
-        return aij(rows, cols, vals, self.held_dofs.size, self.comm, self.prefix, scale=scale,
-                   bs=self.dof, n_global=self.n_global, first=self.first)
+    def operator(self, block_sets, scale=1.0, diagonal=None, solved=False):
+        """This rank's rows of a matrix over the partition's held DOFs from
+        element block sets (global node ids; see :mod:`solver.assembly`)."""
+        from .assembly import default_type, matrix
+        if self.dist is not None:
+            number, n_all, first = self.dist.number, self.dist.n_held, self.layout.start
+        else:
+            number = np.full(int(self.layout.held.max()) + 1, -1, dtype=np.int64)
+            number[self.layout.held] = np.arange(self.layout.n_held)
+            n_all, first = self.layout.n_held, 0
+        return matrix(lambda: block_sets, number, self.layout.n_held, n_all, first, self.dof,
+                      self.comm, self.prefix, scale=scale, diagonal=diagonal,
+                      mat_type=default_type(self.dof, solved))
 
     def whole_held(self):
         """Held nodes of the whole partition (all its pieces)."""

@@ -215,8 +215,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
 
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
     probes = Probes(scene.probes, parts, owner, n_sys)
-    every = (scene.output.energy_every if scene.output and scene.output.energy_every
-             else max(1, n_sys // 2000))
+    every = energy_every(scene)
     guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound)
     start = 0
     if saved:
@@ -225,6 +224,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         probes.restore(saved["probes"], start)
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start)
+    report.setup_wall = time.perf_counter() - t_start
     checkpoint = None
     spec = scene.output.checkpoint if scene.output else None
     if spec:
@@ -260,6 +260,22 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     if failure:
         raise RunFailed(f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
     return result
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far [MB]."""
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def energy_every(scene) -> int:
+    """System steps between energy samples: output.energy_every, or at least 100
+    samples per run, at most one per 10 system steps once a run has 1000 of
+    them, and at most ~2000 samples (a sample costs a MatMult per partition)."""
+    if scene.output and scene.output.energy_every:
+        return scene.output.energy_every
+    n = scene.n_system_steps
+    return max(1, n // 2000, min(10, n // 100))
 
 
 class Report:
@@ -303,6 +319,8 @@ class Report:
         part_attrs = {p.name: part_attrs[p.name] for p in scene.partitions}
         attrs = {"scene": scene.name, "status": status, "message": message, "ranks": comm.size,
                  "wall_time": time.perf_counter() - self.t_start, "stepping_wall_time": loop_wall,
+                 "setup_wall_time": self.setup_wall,
+                 "peak_rss_mb_per_rank": np.array(comm.allgather(peak_rss_mb())),
                  "exchange_wall_time": max(comm.allgather(x_wall)),
                  "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
                  "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
@@ -411,7 +429,9 @@ def summary(result, output_file) -> list[str]:
                       for n, p in result.partitions.items())
     lines = [f"[solver] {a['scene']}: {a['status']}, {a['n_system_steps']} system steps to "
              f"t = {a['t_end']:.6g} s on {a['ranks']} rank(s); wall {a['wall_time']:.3g} s "
-             f"(stepping {a['stepping_wall_time']:.3g} s, exchange {a['exchange_wall_time']:.3g} s)",
+             f"(set-up {a['setup_wall_time']:.3g} s, stepping {a['stepping_wall_time']:.3g} s, "
+             f"exchange {a['exchange_wall_time']:.3g} s); peak memory per rank "
+             f"{a['peak_rss_mb_per_rank'].max():.0f} MB",
              f"[solver]   partitions: {parts}"]
     if "vector_rel_error" in a:
         lines.append(f"[solver]   all probes as one vector (seed 002 eq. 9, mean over samples): "

@@ -397,7 +397,8 @@ class Output:
                                 "(<file stem>_fields.xdmf) and the DEM particles (<stem>_particles.xdmf) "
                                 "for ParaView", None)
     energy_every: int | None = key(
-        "system steps between energy samples and blow-up checks (default: ~2000 samples per run)",
+        "system steps between energy samples and blow-up checks (default: at least 100 samples, at "
+        "most ~2000, and one per 10 system steps or fewer once a run has 1000 of them)",
         None, positive=True)
     progress: float = key("seconds between progress lines on rank 0 (0: none)", 10.0,
                           nonnegative=True)

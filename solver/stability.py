@@ -3,8 +3,10 @@
 Explicit Newmark (any beta) and velocity Verlet are stable for
 ``omega_max * dt < 2``.  For up to ``DENSE_LIMIT`` DOFs the frequency is the
 exact largest eigenvalue of M^-1/2 K M^-1/2 (dense symmetric solve); beyond
-that it is the Gershgorin bound on the same matrix, which is never below the
-true value, so the guard stays on the safe side.
+that it is the Gershgorin bound on the same matrix taken over the element
+blocks (sum of |entries| of every block, never formed), which is never below
+the true value, so the guard stays on the safe side.  The operator is the one
+the partition steps: its cells (fem) or its bonds and overlap cells (dem).
 """
 from __future__ import annotations
 
@@ -25,21 +27,23 @@ class Frequency:
         return omega_h / self.omega_max if self.omega_max > 0 else float("inf")
 
 
-def omega_max(rows, cols, vals, mass: np.ndarray) -> Frequency:
-    """Largest omega of K x = omega^2 M x for COO stiffness and lumped ``mass``."""
+def omega_max(block_sets, held, mass: np.ndarray, dof: int) -> Frequency:
+    """Largest omega of K x = omega^2 M x for the element ``block_sets`` (global
+    node ids) over ``held`` nodes and lumped ``mass`` per held DOF."""
+    from .assembly import gershgorin, triplets
     n = mass.size
-    if n == 0 or len(vals) == 0:
+    if n == 0 or not any(len(c) for c, _ in block_sets):
         return Frequency(0.0, "exact")
-    s = 1.0 / np.sqrt(mass)          # fixed DOFs carry infinite mass: their rows drop out
-    scaled = vals * s[rows] * s[cols]
     if n <= DENSE_LIMIT:
+        local = np.full(int(held.max()) + 1, -1, dtype=np.int64)
+        local[held] = np.arange(held.size)
+        rows, cols, vals = triplets([(local[c], k) for c, k in block_sets], dof)
+        s = 1.0 / np.sqrt(mass)      # fixed DOFs carry infinite mass: their rows drop out
         A = np.zeros((n, n))
-        np.add.at(A, (rows, cols), scaled)
+        np.add.at(A, (rows, cols), vals * s[rows] * s[cols])
         lam = float(np.linalg.eigvalsh(A)[-1])
         return Frequency(float(np.sqrt(max(lam, 0.0))), "exact")
-    radius = np.zeros(n)
-    np.add.at(radius, rows, np.abs(scaled))
-    return Frequency(float(np.sqrt(radius.max())), "Gershgorin bound")
+    return Frequency(float(np.sqrt(gershgorin(block_sets, held, mass, dof))), "Gershgorin bound")
 
 
 def check(scene, spec, model, held):
@@ -49,10 +53,11 @@ def check(scene, spec, model, held):
     acceleration), lowered by Rayleigh damping for explicit ones to
     2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max."""
     from . import integrators
-    rows, cols, vals = model.stiffness_triplets(held)
+    # what the partition steps: cells for fem, bonds (and overlap cells) for dem
+    blocks = model.bond_blocks(held) if spec.method == "dem" else model.stiffness_blocks(held)
     dofs = (held[:, None] * model.dof + np.arange(model.dof)).ravel()
     mass = np.where(model.fixed[dofs], np.inf, np.repeat(model.mass[held], model.dof))
-    fr = omega_max(rows, cols, vals, mass)
+    fr = omega_max(blocks, held, mass, model.dof)
     limit = integrators.make(spec).critical_omega_h()
     if scene.damping.active and spec.integrator != "implicit":
         xi = scene.damping.ratio(fr.omega_max)
