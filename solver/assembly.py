@@ -19,6 +19,24 @@ from .petscutil import init
 CHUNK = 8192          # elements per insertion call (bounds the temporaries)
 
 
+class CellStiffness:
+    """K_e of a family's cells, computed when asked and never all stored:
+    ``ke[idx]`` returns [len(idx), nd, nd] for element indices, a slice or a mask."""
+
+    def __init__(self, family, points, conn, material):
+        self.family, self.points, self.conn, self.material = family, points, conn, material
+
+    def __len__(self) -> int:
+        return len(self.conn)
+
+    def __getitem__(self, idx) -> np.ndarray:
+        from .elements import stiffness
+        return stiffness(self.family, self.points[self.conn[idx]], self.material)
+
+    def subset(self, mask) -> "CellStiffness":
+        return CellStiffness(self.family, self.points, self.conn[mask], self.material)
+
+
 def element_dofs(conn: np.ndarray, dim: int) -> np.ndarray:
     """Global DOFs of every element [n_el, n_nodes*dim]."""
     return (conn[:, :, None] * dim + np.arange(dim)).reshape(len(conn), -1)
@@ -37,7 +55,7 @@ def triplets(block_sets, dof: int):
     """COO of block sets (small operators: dense checks and references)."""
     r, c, v = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
     for conn, Ke in block_sets:
-        a, b, x = stiffness_triplets(Ke, conn, dof)
+        a, b, x = stiffness_triplets(Ke[:len(conn)], conn, dof)
         r.append(a)
         c.append(b)
         v.append(x)
@@ -53,7 +71,7 @@ def _insert(A, block_sets, number, lo, hi, scale, P):
             keep = (rows >= 0).any(axis=1)
             if not keep.any():
                 continue
-            ke = Ke[s:s + CHUNK][keep]
+            ke = Ke[np.arange(s, s + len(c))[keep]]          # only the elements of my rows
             A.setValuesBlockedRCV(rows[keep], c[keep].astype(P.IntType),
                                   ke * scale if scale != 1.0 else ke, add)
 
@@ -66,13 +84,15 @@ def default_type(dof: int, solved: bool = False) -> str:
 
 
 def matrix(block_sets, number, n_local: int, n_global: int, first: int, dof: int, comm,
-           prefix: str, scale: float = 1.0, diagonal=None, mat_type: str = "aij"):
+           prefix: str, scale: float = 1.0, diagonal=None, mat_type: str = "aij", graph=None):
     """Square matrix (type ``mat_type`` unless the options say otherwise) over
     ``n_global`` nodes x ``dof``; this rank holds the
     ``n_local`` nodes from node ``first``.  ``block_sets``: a callable that
     yields (conn, Ke) block sets (called twice); ``number``: node -> matrix
     node number (-1: not in the matrix); ``diagonal``: values added to this
-    rank's diagonal (e.g. the mass of K_eff)."""
+    rank's diagonal (e.g. the mass of K_eff); ``graph``: (indptr, indices) node
+    adjacency covering every block, which preallocates AIJ and BAIJ without a
+    pass over the elements (otherwise PETSc's MATPREALLOCATOR does)."""
     P = init()
     sizes = ((n_local * dof, n_global * dof), (n_local * dof, n_global * dof))
     A = P.Mat().create(comm=comm)
@@ -87,17 +107,24 @@ def matrix(block_sets, number, n_local: int, n_global: int, first: int, dof: int
         A.setSizes(sizes, bsize=dof)
         A.setType(P.Mat.Type.AIJ)
     lo, hi = first, first + n_local
-    pre = P.Mat().create(comm=comm)
-    pre.setSizes(sizes, bsize=dof)
-    pre.setType(P.Mat.Type.PREALLOCATOR)
-    pre.setUp()
-    _insert(pre, block_sets(), number, lo, hi, 1.0, P)
-    own = np.arange(lo, hi, dtype=P.IntType)[:, None]
-    eye = np.zeros((n_local, dof, dof))
-    pre.setValuesBlockedRCV(own, own, eye, P.InsertMode.ADD_VALUES)   # every diagonal block
-    pre.assemble()
-    pre.preallocatorPreallocate(A, fill=True)
-    pre.destroy()
+    kind = A.getType()
+    if graph is not None and "sbaij" not in kind and ("baij" in kind or "aij" in kind):
+        d_nnz, o_nnz = _graph_nnz(graph, number, lo, hi)
+        if "baij" not in kind:                   # AIJ counts scalar rows
+            d_nnz, o_nnz = np.repeat(d_nnz * dof, dof), np.repeat(o_nnz * dof, dof)
+        A.setPreallocationNNZ((d_nnz.astype(P.IntType), o_nnz.astype(P.IntType)))
+    else:
+        pre = P.Mat().create(comm=comm)
+        pre.setSizes(sizes, bsize=dof)
+        pre.setType(P.Mat.Type.PREALLOCATOR)
+        pre.setUp()
+        _insert(pre, block_sets(), number, lo, hi, 1.0, P)
+        own = np.arange(lo, hi, dtype=P.IntType)[:, None]
+        eye = np.zeros((n_local, dof, dof))
+        pre.setValuesBlockedRCV(own, own, eye, P.InsertMode.ADD_VALUES)   # every diagonal block
+        pre.assemble()
+        pre.preallocatorPreallocate(A, fill=True)
+        pre.destroy()
     if diagonal is None:
         # axis-aligned bonds carry exact zeros in their k n n^T blocks: not stored
         A.setOption(P.Mat.Option.IGNORE_ZERO_ENTRIES, True)
@@ -117,16 +144,41 @@ def matrix(block_sets, number, n_local: int, n_global: int, first: int, dof: int
     return A
 
 
+def _graph_nnz(graph, number, lo, hi):
+    """Block nonzeros per block row in and off the diagonal block, rows lo..hi-1."""
+    indptr, indices = graph
+    mine = np.flatnonzero((number >= lo) & (number < hi))
+    nodes = np.empty(hi - lo, dtype=np.int64)
+    nodes[number[mine] - lo] = mine
+    deg = indptr[nodes + 1] - indptr[nodes]
+    start = np.repeat(indptr[nodes] - np.concatenate([[0], np.cumsum(deg)[:-1]]), deg)
+    cols = number[indices[start + np.arange(deg.sum())]]
+    row = np.repeat(np.arange(hi - lo), deg)
+    inside = cols >= 0
+    diag = inside & (cols >= lo) & (cols < hi)
+    d = np.bincount(row[diag], minlength=hi - lo) + 1            # + the node itself
+    o = np.bincount(row[inside & ~diag], minlength=hi - lo)
+    return d, o
+
+
+def csr(neighbours):
+    """(indptr, indices) of a list of neighbour arrays."""
+    deg = np.array([len(x) for x in neighbours], dtype=np.int64)
+    indptr = np.concatenate([[0], np.cumsum(deg)])
+    indices = np.concatenate(neighbours) if len(neighbours) else np.zeros(0, dtype=np.int64)
+    return indptr, indices.astype(np.int64)
+
+
 def nodal(values: np.ndarray, conn: np.ndarray, n_nodes: int) -> np.ndarray:
     """Sum per-element nodal values [n_el, n_nodes_el] into nodes [n_nodes]."""
     return np.bincount(conn.ravel(), weights=values.ravel(), minlength=n_nodes)
 
 
 def group_matrices(mesh, name: str, material, where: str = ""):
-    """Element stiffness and lumped masses of every cell family of group ``name``:
-    list of (family, conn, Ke, me).  An inverted or degenerate cell is reported
+    """Element stiffness (computed when asked) and lumped masses of every cell
+    family of group ``name``: list of (family, conn, CellStiffness, me).  An inverted or degenerate cell is reported
     with its group and gmsh element tag."""
-    from .elements import FAMILIES, BadElement, lumped_mass, stiffness
+    from .elements import FAMILIES, BadElement, lumped_mass
     from .errors import SceneError
     group = mesh.group(name, where)
     out = []
@@ -137,7 +189,8 @@ def group_matrices(mesh, name: str, material, where: str = ""):
                              f"a {mesh.dim}D body needs {[f for f, v in FAMILIES.items() if v.dim == mesh.dim]}")
         X = mesh.points[conn]
         try:
-            out.append((fam, conn, stiffness(fam, X, material), lumped_mass(fam, X, material)))
+            me = lumped_mass(fam, X, material)        # also checks every Jacobian
+            out.append((fam, conn, CellStiffness(fam, mesh.points, conn, material), me))
         except BadElement as e:
             tag = int(group.cell_tags[fam_name][e.index])
             raise SceneError(f"{where + ': ' if where else ''}group {name!r}: gmsh element {tag} "
@@ -149,19 +202,3 @@ def assemble(Ke, conn, dim, n_nodes, comm, prefix, scale=1.0):
     """Sequential AIJ (block size dim) of ``n_nodes`` nodes from element matrices."""
     number = np.arange(n_nodes)
     return matrix(lambda: [(conn, Ke)], number, n_nodes, n_nodes, 0, dim, comm, prefix, scale)
-
-
-def gershgorin(block_sets, held, mass_dofs, dof) -> float:
-    """max_i sum_j |K_ij| s_i s_j over the blocks' entries (s = mass^-1/2; an
-    infinite mass drops its DOF): an upper bound of omega_max^2 that never
-    forms the matrix.  ``held``: node -> local index map source."""
-    local = np.full(int(held.max()) + 2 if held.size else 1, -1, dtype=np.int64)
-    local[held] = np.arange(held.size)
-    s = 1.0 / np.sqrt(mass_dofs)
-    radius = np.zeros(mass_dofs.size)
-    for conn, Ke in block_sets:
-        for a in range(0, len(conn), CHUNK):
-            d = element_dofs(local[conn[a:a + CHUNK]], dof)            # [ne, nd]
-            contrib = (np.abs(Ke[a:a + CHUNK]) * s[d][:, None, :]).sum(axis=2) * s[d]
-            radius += np.bincount(d.ravel(), weights=contrib.ravel(), minlength=radius.size)
-    return float(radius.max()) if radius.size else 0.0

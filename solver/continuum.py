@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .assembly import group_matrices, nodal, stiffness_triplets
+from .assembly import group_matrices, nodal
 from .loads import load_function
 from .model import PointLoad
 
@@ -23,7 +23,7 @@ class ContinuumArrays:
     dof: int
     points: np.ndarray
     mass: np.ndarray             # [n_nodes] lumped
-    cells: list                  # (family, conn, Ke) per cell family of the body
+    cells: list                  # (family, conn, CellStiffness) per cell family of the body
     fixed: np.ndarray            # [n_nodes * dof] bool
     loads: tuple
     u0: np.ndarray
@@ -39,37 +39,6 @@ class ContinuumArrays:
     def n_dofs(self) -> int:
         return self.n_nodes * self.dof
 
-    def bond_triplets(self, held: np.ndarray):
-        """COO stiffness of the lattice bonds whose ends are both held (local DOFs)."""
-        from .lattice import bond_triplets
-        if not self.bonds:
-            return (np.zeros(0, np.int64),) * 2 + (np.zeros(0),)
-        bi, bj, k = self.bonds
-        local = np.full(self.n_nodes, -1, dtype=np.int64)
-        local[held] = np.arange(held.size)
-        li, lj = local[bi], local[bj]
-        keep = (li >= 0) & (lj >= 0)
-        pts = np.zeros((held.size, self.dof))
-        pts[:] = self.points[held]
-        r, c, v = bond_triplets(pts, li[keep], lj[keep], k[keep], self.dof)
-        # the overlap cells are the same elements in both partitions (as the
-        # overlap spring of a 1D chain): symmetric interface forces
-        r2, c2, v2 = self._cell_triplets(self.overlap_cells, held)
-        return np.concatenate([r, r2]), np.concatenate([c, c2]), np.concatenate([v, v2])
-
-    def _cell_triplets(self, cells, held):
-        local = np.full(self.n_nodes, -1, dtype=np.int64)
-        local[held] = np.arange(held.size)
-        rows, cols, vals = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
-        for _, conn, Ke in cells:
-            lc = local[conn]
-            keep = np.all(lc >= 0, axis=1)
-            r, c, v = stiffness_triplets(Ke[keep], lc[keep], self.dof)
-            rows.append(r)
-            cols.append(c)
-            vals.append(v)
-        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-
     def _held(self, held):
         inh = np.zeros(self.n_nodes, bool)
         inh[held] = True
@@ -80,7 +49,10 @@ class ContinuumArrays:
         out = []
         for _, conn, Ke in cells:
             keep = np.all(inh[conn], axis=1)
-            out.append((conn, Ke) if keep.all() else (conn[keep], Ke[keep]))   # no copy when all
+            if keep.all():
+                out.append((conn, Ke))
+            else:
+                out.append((conn[keep], Ke.subset(keep) if hasattr(Ke, "subset") else Ke[keep]))
         return out
 
     def stiffness_blocks(self, held: np.ndarray) -> list:
@@ -118,11 +90,6 @@ class ContinuumArrays:
         a, b = key // n, key % n
         cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
         return np.split(b, cuts[1:-1])
-
-    def stiffness_triplets(self, held: np.ndarray):
-        """COO stiffness over the held nodes (local DOF numbering) from the cells
-        whose nodes are all held."""
-        return self._cell_triplets(self.cells, held)
 
 
 def facet_forces(mesh, group_name, where):

@@ -81,6 +81,13 @@ class GravouilCombescure:
                               scene.damping)
         self.B = FemPartition(spec_b, lay_b, model_b, P.COMM_SELF, "literal", scene.time.dt, R,
                               scene.damping)
+        for part in (self.A, self.B):               # too large for the dense check
+            if self.freqs[part.name][0] is None:
+                fr = stability.gershgorin(part.Kneg, part.mass, part.fixed_dofs)
+                crit, problem = stability.verdict(scene, part.spec, fr)
+                self.freqs[part.name] = (fr, crit)
+                if problem:
+                    raise StabilityError(f"{problem} (GC subdomain, interface mass halved)")
         self.parts = [self.A, self.B] if a == 0 else [self.B, self.A]
         self.models = {self.A.name: model_a, self.B.name: model_b}
         self.m = self.A.n_sub

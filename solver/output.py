@@ -4,7 +4,8 @@ Layout::
 
     /                  attrs: scene, status (running|completed|failed), message, ranks,
                        wall_time, setup_wall_time, stepping_wall_time,
-                       exchange_wall_time, peak_rss_mb_per_rank, scheme,
+                       exchange_wall_time, exchange_wall_time_per_rank,
+                       peak_rss_mb_per_rank, scheme,
                        external_treatment, system_dt, base_dt, n_system_steps,
                        t_end, reference, scene_yaml, steps_<partition>,
                        wall_time_<partition>

@@ -75,9 +75,10 @@ class Partition:
     method = "?"
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
-                 system_ratio: int, damping=None, dist=None):
+                 system_ratio: int, damping=None, dist=None, graph=None):
         self.spec = spec
         self.dist = dist            # Distribution over the ranks of ``comm`` (None: one rank)
+        self.graph = graph          # node adjacency (indptr, indices): preallocation
         self.name = spec.name
         self.prefix = f"{spec.name}_"
         self.layout = layout
@@ -104,7 +105,8 @@ class Partition:
             setattr(self, name, vec_on(arr, comm))
         self.mass = np.repeat(model.mass[held], dof)
         self._minv = 1.0 / self.mass
-        self._minv[model.fixed[self.held_dofs]] = 0.0        # fixed DOFs never accelerate
+        self.fixed_dofs = model.fixed[self.held_dofs]
+        self._minv[self.fixed_dofs] = 0.0                     # fixed DOFs never accelerate
         self.minv = vec_on(self._minv, comm)
         # taylor / prescribed: the acceleration solve covers the owned DOFs only,
         # so external accelerations keep their exchanged values
@@ -153,7 +155,8 @@ class Partition:
             n_all, first = self.layout.n_held, 0
         return matrix(lambda: block_sets, number, self.layout.n_held, n_all, first, self.dof,
                       self.comm, self.prefix, scale=scale, diagonal=diagonal,
-                      mat_type=default_type(self.dof, solved))
+                      mat_type=default_type(self.dof, solved),
+                      graph=self.graph if self.dist is not None else None)
 
     def whole_held(self):
         """Held nodes of the whole partition (all its pieces)."""

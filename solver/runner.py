@@ -20,6 +20,7 @@ from .gc import GravouilCombescure
 from .errors import RunFailed, SceneError, StabilityError
 from .fem import FemPartition
 from .monitor import EnergyGuard, Probes
+from .assembly import csr
 from .petscutil import init
 
 PARTITION_TYPES = {"fem": FemPartition, "dem": DemPartition}
@@ -70,6 +71,35 @@ class Assembly:
             exchange.destroy()
 
 
+def refuse(scene, problems, say, freqs=None):
+    """Stop on unstable steps (guard.stable_step) or warn; with ``freqs``, warn
+    about coupled implicit steps beyond the measured limit."""
+    if problems and scene.guard.stable_step:
+        raise StabilityError(problems[0])
+    for problem in dict.fromkeys(problems):
+        say(f"warning: {problem}; guard.stable_step is false, running anyway")
+    if freqs is not None:
+        for warning in coupled_step_warnings(scene, [{n: c for n, (_, c) in freqs.items()}]):
+            say(f"warning: {warning}")
+
+
+def check_large(scene, parts, freqs, comm, say):
+    """Partitions too large for the dense check: the Gershgorin bound from their
+    assembled operators (collective on each partition's ranks), then refuse."""
+    local = {}
+    for part in parts:
+        if freqs.get(part.name, (None,))[0] is None:
+            fr = stability.gershgorin(part.Kneg, part.mass, part.fixed_dofs)
+            local[part.name] = (fr, *stability.verdict(scene, part.spec, fr))
+    problems = []
+    for chunk in comm.allgather(local):
+        for name, (fr, crit, problem) in chunk.items():
+            freqs[name] = (fr, crit)
+            if problem:
+                problems.append(problem)
+    refuse(scene, problems, say)
+
+
 def owned_nonzeros(neighbours, owned, dof) -> int:
     """Nonzeros of the owned rows of a partition's operator: (degree + 1) dof^2 per node."""
     return int(sum(len(neighbours[n]) + 1 for n in owned.tolist())) * dof * dof
@@ -108,23 +138,21 @@ def build(scene, comm, say=_silent) -> Assembly:
                                           [p for p in local_ids if assignment.ranks[p][0] == rank])
         for chunk in comm.allgather(freqs):
             freqs.update(chunk)
-        problems = sum(comm.allgather(problems), [])
-        if problems and scene.guard.stable_step:
-            raise StabilityError(problems[0])
-        for problem in dict.fromkeys(problems):
-            say(f"warning: {problem}; guard.stable_step is false, running anyway")
-        for warning in coupled_step_warnings(scene, [{n: c for n, (_, c) in freqs.items()}]):
-            say(f"warning: {warning}")
+        refuse(scene, sum(comm.allgather(problems), []), say)
         comms = ranks.communicators(comm, assignment)
         dists = [distribute.split(lay, neighbours, len(assignment.ranks[p]))
                  for p, lay in enumerate(layouts)]
+        graph = csr(neighbours)
         parts = []
         for p in local_ids:
             piece = dists[p].pieces[assignment.ranks[p].index(rank)]
             parts.append(PARTITION_TYPES[scene.partitions[p].method](
                 scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
-                scene.damping, dist=dists[p]))
+                scene.damping, dist=dists[p], graph=graph))
+        check_large(scene, parts, freqs, comm, say)
         scheme = scheme_cls(comm, dists, assignment, parts, mdl.dof, scene)
+    if scene.coupling.scheme != "gc":
+        refuse(scene, [], say, freqs)
     lines = []
     for part in parts:
         fr, crit = freqs[part.name]
@@ -322,6 +350,7 @@ class Report:
                  "setup_wall_time": self.setup_wall,
                  "peak_rss_mb_per_rank": np.array(comm.allgather(peak_rss_mb())),
                  "exchange_wall_time": max(comm.allgather(x_wall)),
+                 "exchange_wall_time_per_rank": np.array(comm.allgather(x_wall)),
                  "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
                  "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
                  "t_end": done * Dt, "reference": reference_label(scene),

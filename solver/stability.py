@@ -2,10 +2,11 @@
 
 Explicit Newmark (any beta) and velocity Verlet are stable for
 ``omega_max * dt < 2``.  For up to ``DENSE_LIMIT`` DOFs the frequency is the
-exact largest eigenvalue of M^-1/2 K M^-1/2 (dense symmetric solve); beyond
-that it is the Gershgorin bound on the same matrix taken over the element
-blocks (sum of |entries| of every block, never formed), which is never below
-the true value, so the guard stays on the safe side.  The operator is the one
+exact largest eigenvalue of M^-1/2 K M^-1/2 (dense symmetric solve), known
+before any PETSc object exists; beyond that it is the Gershgorin bound of the
+same matrix, taken from the partition's assembled operator (still before
+stepping), which is never below the true value, so the guard stays on the
+safe side.  The operator is the one
 the partition steps: its cells (fem) or its bonds and overlap cells (dem).
 """
 from __future__ import annotations
@@ -30,7 +31,7 @@ class Frequency:
 def omega_max(block_sets, held, mass: np.ndarray, dof: int) -> Frequency:
     """Largest omega of K x = omega^2 M x for the element ``block_sets`` (global
     node ids) over ``held`` nodes and lumped ``mass`` per held DOF."""
-    from .assembly import gershgorin, triplets
+    from .assembly import triplets
     n = mass.size
     if n == 0 or not any(len(c) for c, _ in block_sets):
         return Frequency(0.0, "exact")
@@ -43,7 +44,28 @@ def omega_max(block_sets, held, mass: np.ndarray, dof: int) -> Frequency:
         np.add.at(A, (rows, cols), vals * s[rows] * s[cols])
         lam = float(np.linalg.eigvalsh(A)[-1])
         return Frequency(float(np.sqrt(max(lam, 0.0))), "exact")
-    return Frequency(float(np.sqrt(gershgorin(block_sets, held, mass, dof))), "Gershgorin bound")
+    return None                      # larger: from the assembled operator (gershgorin)
+
+
+def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
+    """Gershgorin bound of M^-1/2 K M^-1/2 from a partition's assembled operator
+    (this rank's rows; collective): max_i sum_j |K_ij| s_i s_j with s = m^-1/2
+    and 0 on fixed DOFs, as PETSc's infinity norm of a diagonally scaled copy."""
+    from .petscutil import init
+    P = init()
+    s = np.where(fixed, 0.0, 1.0 / np.sqrt(mass))
+    B = Kneg.duplicate(copy=True)
+    v = B.createVecLeft()
+    v.setArray(s)
+    try:
+        B.diagonalScale(v, v)
+    except P.Error:                  # a type without diagonal scaling (e.g. dense, SELL)
+        B.convert("aij")
+        B.diagonalScale(v, v)
+    radius = B.norm(P.NormType.NORM_INFINITY)
+    B.destroy()
+    v.destroy()
+    return Frequency(float(np.sqrt(radius)), "Gershgorin bound")
 
 
 def check(scene, spec, model, held):
@@ -58,6 +80,14 @@ def check(scene, spec, model, held):
     dofs = (held[:, None] * model.dof + np.arange(model.dof)).ravel()
     mass = np.where(model.fixed[dofs], np.inf, np.repeat(model.mass[held], model.dof))
     fr = omega_max(blocks, held, mass, model.dof)
+    if fr is None:
+        return None, None, None      # decided once the operator exists (verdict)
+    return (fr, *verdict(scene, spec, fr))
+
+
+def verdict(scene, spec, fr: Frequency):
+    """(critical step, problem message or None) of partition ``spec`` at ``fr``."""
+    from . import integrators
     limit = integrators.make(spec).critical_omega_h()
     if scene.damping.active and spec.integrator != "implicit":
         xi = scene.damping.ratio(fr.omega_max)
@@ -69,4 +99,4 @@ def check(scene, spec, model, held):
         problem = (f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
                    f"{scene.time.dt:.4g} s) is unstable, critical step {crit:.4g} s "
                    f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}); reduce time.dt or the ratio")
-    return fr, crit, problem
+    return crit, problem
