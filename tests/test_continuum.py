@@ -224,3 +224,16 @@ def test_coupled_implicit_step_warning(eta, warned, tmp_path):
     proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
     assert proc.returncode == 0, proc.stderr
     assert ("found unstable beyond ~1.4x" in proc.stdout) == warned, proc.stdout
+
+
+def test_continuum_scene_with_a_monolithic_reference(tmp_path):
+    """reference: monolithic on a mesh (it crashed reading scene.model.network)."""
+    raw = split_bar(tmp_path, eta=2, end=4e-6)
+    raw["reference"] = {"kind": "monolithic", "dt": 1e-8, "integrator": "explicit"}
+    res = run_scene(raw, tmp_path)
+    for probe in ("mid", "w"):
+        at = res.probes[probe]["attrs"]
+        ref = res.probes[probe]["reference_displacement"]
+        assert np.abs(ref).max() > 0
+        assert at["rms_rel_error"] < 0.05, (probe, at)
+    assert list((tmp_path / ".reference-cache").glob("*.npz"))

@@ -3,6 +3,8 @@ import csv
 import subprocess
 import sys
 
+import pytest
+
 from conftest import ROOT
 
 
@@ -19,7 +21,13 @@ def test_sweep_table(tmp_path):
         assert 0 < float(r["max_rel_error"]) < 1e-6
         assert float(r["stepping_s"]) > 0
         assert int(r["fem_steps"]) == 10000 // int(r["eta"])
-    assert float(rows[0]["speedup"]) == 1.0
+    # speed-up of every row against the first point of its variant, from the stepping
+    # times written beside it; the error grows with the ratio
+    for base, row in ((rows[i], rows[i + 1]) for i in range(0, len(rows), 2)):
+        assert float(row["speedup"]) == pytest.approx(
+            float(base["stepping_s"]) / float(row["stepping_s"]), rel=1e-9)
+        assert float(row["time_ratio"]) == pytest.approx(1 / float(row["speedup"]), rel=1e-9)
+        assert float(row["max_rel_error"]) > float(base["max_rel_error"])
     assert (tmp_path / "sweep.png").stat().st_size > 10000
     assert "| ranks | scheme | treatment | η |" in (tmp_path / "sweep.md").read_text()
 
