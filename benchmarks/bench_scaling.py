@@ -65,12 +65,12 @@ def partition_table(a, counts):
     """Per N: owned DOF, ghost and external DOF, bytes and messages per rank per
     system step, load imbalance, from the solver's own assignment and split."""
     from solver import distribute, model as model_mod, overlap, ranks, scene as scene_mod
-    from solver.coupling import SCHEMES
-    from solver.runner import owned_nonzeros
+    from solver.partitioning import owned_nonzeros
+    from solver.schemes import scheme_class
     scene = scene_mod.load(SCENE, overrides(a, 10))
     mdl = model_mod.build(scene)
     nb = mdl.neighbours()
-    treat = SCHEMES[scene.coupling.scheme].treatments(scene)
+    treat = scheme_class(scene.coupling.scheme).treatments(scene)
     layouts = overlap.derive(nb, scene.partitions, overlap.layer_counts(scene.partitions, treat))
     R = scene.system_ratio
     dof = mdl.dof

@@ -27,6 +27,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from bench_throughput import best, triad  # noqa: E402  (one timer, one triad for all benchmarks)
 
 SCENE = """name: block3d
 time: {{end: {end!r}, dt: 1.0e-8}}
@@ -83,22 +86,6 @@ def solver_run(scene: Path, out: Path, ranks: int) -> dict:
     return {"ranks": ranks, "setup": a["setup_wall_time"], "stepping": a["stepping_wall_time"],
             "wall": a["wall_time"], "steps": steps, "step_ms": 1e3 * part_wall / steps,
             "rss": np.asarray(a["peak_rss_mb_per_rank"])}
-
-
-def best(fn, repeat=5, number=10):
-    times = []
-    for _ in range(repeat):
-        c0 = time.perf_counter()
-        for _ in range(number):
-            fn()
-        times.append((time.perf_counter() - c0) / number)
-    return min(times)
-
-
-def triad(n=20_000_000):
-    """Bytes/s of a = b + 3 c in numpy (two passes: 5 x 8 bytes per element)."""
-    a, b, c = np.zeros(n), np.ones(n), np.ones(n)
-    return 5 * 8 * n / best(lambda: np.add(b, np.multiply(c, 3.0, out=a), out=a), number=3)
 
 
 def matmult_table(scene_path: Path) -> list[dict]:

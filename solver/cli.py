@@ -81,7 +81,7 @@ def print_keys(markdown=False):
     if markdown:
         print(keys_markdown())
         return
-    for name, tp, default, doc in rows:
+    for name, tp, default, doc in describe(Scene):
         print(f"{name:32s} {tp:28s} default {default:14s} {doc}")
 
 
@@ -90,7 +90,7 @@ def print_schemes():
     from .scene import Coupling
     for cls in integrators.CATALOGUE:
         print(f"{cls.__name__}: {cls.__doc__.strip()}\n")
-    from .coupling import SUPPORT
+    from .schemes import SUPPORT
     from .schema import describe
     print("coupling.scheme / coupling.external:")
     for name, tp, default, doc in describe(Coupling):

@@ -64,6 +64,15 @@ class ConcurrentOverlap:
     def treatments(scene) -> list[str]:
         return [scene.coupling.external for _ in scene.partitions]
 
+    @classmethod
+    def build(cls, scene, model, comm, say):
+        """The partitions stage (:mod:`solver.partitioning`), then the scheme."""
+        from .partitioning import build_partitions
+        built = build_partitions(scene, model, comm, cls.treatments(scene), say)
+        scheme = cls(comm, built.dists, built.assignment, built.parts, model.dof, scene)
+        scheme.layouts, scheme.freqs = built.layouts, built.freqs
+        return scheme
+
     def __init__(self, comm, dists, ranks, parts, dof, scene):
         self.parts = parts
         need = any(d.layout.layers for d in dists)
@@ -140,16 +149,3 @@ class Staggered(ConcurrentOverlap):
         if imp:
             self.clocks.part(imp, self._solve_implicit, t0 + imp.dt)
         self.clocks.exchange(self.to_explicit)
-
-
-SCHEMES = {"overlap": ConcurrentOverlap, "staggered": Staggered}
-
-# What each coupling.scheme accepts (checked in Scene.validate and at launch).
-SUPPORT = {
-    "overlap": "any number of partitions, each fem+explicit, fem+implicit or dem+verlet; "
-               "any number of ranks; external: taylor, layers, literal",
-    "staggered": "exactly two partitions: fem+implicit with the largest ratio, and fem+explicit "
-                 "or dem+verlet; any number of ranks; external (of the explicit side): taylor, layers, "
-                 "literal",
-    "gc": "exactly two partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank",
-}

@@ -13,8 +13,6 @@ the run with PETSc's reason.
 """
 from __future__ import annotations
 
-import numpy as np
-
 from .errors import RunFailed
 from .partition import Partition
 from .petscutil import init, vec_on

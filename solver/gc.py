@@ -64,6 +64,16 @@ class GravouilCombescure:
     name = "gc"
     exchanges = ()
 
+    @staticmethod
+    def treatments(scene) -> list[str]:
+        return ["literal"] * len(scene.partitions)
+
+    @classmethod
+    def build(cls, scene, model, comm, say):
+        scheme = cls(scene, model, comm)
+        scheme.layouts = [p.layout for p in scheme.parts]
+        return scheme
+
     def __init__(self, scene, mdl, comm):
         if comm.size != 1:
             raise LaunchError("coupling.scheme gc (the GC baseline) runs on 1 rank")

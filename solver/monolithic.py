@@ -43,7 +43,7 @@ def history(scene, t_axis, log=None) -> dict:
 
     from .monitor import Probes
     from .overlap import owner_map
-    from .runner import build
+    from .build import build
 
     ref = scene.reference
     cache = Path(scene.output_file).parent / ".reference-cache" / f"{scene.name}-{_key(scene)}.npz"

@@ -1,9 +1,9 @@
-"""One run of a scene: build partitions, guard, step, exchange, record, report.
+"""One run of a scene: build (:mod:`solver.build`), step, watch, record, report.
 
-On one rank every partition runs in this process; on as many ranks as
-partitions, partition p runs on rank p.  What a system step does is the
-coupling scheme's business (:mod:`solver.coupling`); what is watched while
-stepping is :mod:`solver.monitor`'s.
+What a system step does is the coupling scheme's business
+(:mod:`solver.coupling`, :mod:`solver.gc`); which rank holds what is
+:mod:`solver.partitioning`'s; what is watched while stepping is
+:mod:`solver.monitor`'s; checkpoints are :mod:`solver.state`'s.
 """
 from __future__ import annotations
 
@@ -13,17 +13,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import model as model_mod
-from . import distribute, overlap, ranks, reference, stability
-from .coupling import SCHEMES
-from .dem import DemPartition
-from .gc import GravouilCombescure
+from . import overlap, reference
+from .build import build
 from .errors import RunFailed, SceneError, StabilityError
-from .fem import FemPartition
 from .monitor import EnergyGuard, Probes
-from .assembly import csr
-from .petscutil import init
-
-PARTITION_TYPES = {"fem": FemPartition, "dem": DemPartition}
+from .partitioning import check_stability
 
 
 @dataclass
@@ -40,171 +34,6 @@ class RunResult:
 
 def _silent(*_):
     pass
-
-
-def check_stability(scene, mdl, layouts, ids):
-    """({name: (Frequency, critical step)}, problems) of partitions ``ids``; numpy only."""
-    freqs, problems = {}, []
-    for p in ids:
-        fr, crit, problem = stability.check(scene, scene.partitions[p], mdl, layouts[p].held)
-        freqs[scene.partitions[p].name] = (fr, crit)
-        if problem:
-            problems.append(problem)
-    return freqs, problems
-
-
-@dataclass
-class Assembly:
-    """Everything a run steps: the model, all layouts, this rank's partitions
-    and the coupling scheme (which owns the exchanges)."""
-
-    model: object
-    layouts: list
-    parts: list
-    scheme: object
-    freqs: dict
-
-    def destroy(self):
-        for part in self.parts:
-            part.destroy()
-        for exchange in self.scheme.exchanges:
-            exchange.destroy()
-
-
-def refuse(scene, problems, say, freqs=None):
-    """Stop on unstable steps (guard.stable_step) or warn; with ``freqs``, warn
-    about coupled implicit steps beyond the measured limit."""
-    if problems and scene.guard.stable_step:
-        raise StabilityError(problems[0])
-    for problem in dict.fromkeys(problems):
-        say(f"warning: {problem}; guard.stable_step is false, running anyway")
-    if freqs is not None:
-        for warning in coupled_step_warnings(scene, [{n: c for n, (_, c) in freqs.items()}]):
-            say(f"warning: {warning}")
-
-
-def check_large(scene, parts, freqs, comm, say):
-    """Partitions too large for the dense check: the Gershgorin bound from their
-    assembled operators (collective on each partition's ranks), then refuse."""
-    local = {}
-    for part in parts:
-        if freqs.get(part.name, (None,))[0] is None:
-            fr = stability.gershgorin(part.Kneg, part.mass, part.fixed_dofs)
-            local[part.name] = (fr, *stability.verdict(scene, part.spec, fr))
-    problems = []
-    for chunk in comm.allgather(local):
-        for name, (fr, crit, problem) in chunk.items():
-            freqs[name] = (fr, crit)
-            if problem:
-                problems.append(problem)
-    refuse(scene, problems, say)
-
-
-def owned_nonzeros(neighbours, owned, dof) -> int:
-    """Nonzeros of the owned rows of a partition's operator: (degree + 1) dof^2 per node."""
-    return int(sum(len(neighbours[n]) + 1 for n in owned.tolist())) * dof * dof
-
-
-def build(scene, comm, say=_silent) -> Assembly:
-    """Check the launch and the steps, then build this rank's share of the run."""
-    init()
-    rank, size = comm.rank, comm.size
-    n_part = len(scene.partitions)
-    scheme_cls = SCHEMES.get(scene.coupling.scheme)
-    treatments = scheme_cls.treatments(scene) if scheme_cls else ["literal"] * n_part
-    R = scene.system_ratio
-    n_sys = scene.n_system_steps
-    Dt = scene.system_dt
-
-    mdl = model_mod.build(scene)
-    say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
-        f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
-    if scene.coupling.scheme == "gc":
-        scheme = GravouilCombescure(scene, mdl, comm)
-        parts, layouts, freqs = scheme.parts, [p.layout for p in scheme.parts], scheme.freqs
-    else:
-        neighbours = mdl.neighbours()
-        layouts = overlap.derive(neighbours, scene.partitions,
-                                 overlap.layer_counts(scene.partitions, treatments))
-        costs = [ranks.cost(owned_nonzeros(neighbours, lay.owned, mdl.dof), R // p.ratio)
-                 for lay, p in zip(layouts, scene.partitions)]
-        assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts],
-                                  [p.ranks for p in scene.partitions])
-        for line in assignment.lines([p.name for p in scene.partitions]):
-            say(line)
-        local_ids = assignment.partitions_on(rank)
-        # each partition's bound once, on its first rank
-        freqs, problems = check_stability(scene, mdl, layouts,
-                                          [p for p in local_ids if assignment.ranks[p][0] == rank])
-        for chunk in comm.allgather(freqs):
-            freqs.update(chunk)
-        refuse(scene, sum(comm.allgather(problems), []), say)
-        comms = ranks.communicators(comm, assignment)
-        dists = [distribute.split(lay, neighbours, len(assignment.ranks[p]))
-                 for p, lay in enumerate(layouts)]
-        graph = csr(neighbours)
-        parts = []
-        for p in local_ids:
-            piece = dists[p].pieces[assignment.ranks[p].index(rank)]
-            parts.append(PARTITION_TYPES[scene.partitions[p].method](
-                scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
-                scene.damping, dist=dists[p], graph=graph))
-        check_large(scene, parts, freqs, comm, say)
-        scheme = scheme_cls(comm, dists, assignment, parts, mdl.dof, scene)
-    if scene.coupling.scheme != "gc":
-        refuse(scene, [], say, freqs)
-    lines = []
-    for part in parts:
-        fr, crit = freqs[part.name]
-        lines.append(f"[solver]   {part.describe()}")
-        lines.append(f"[solver]   {part.name}: built {'; '.join(part.built)}; omega_max "
-                     f"{fr.omega_max:.4g} rad/s ({fr.method}), critical step {crit:.4g} s")
-    for chunk in comm.gather(lines, root=0) or []:
-        for line in chunk:
-            say(line)
-
-    if scheme.exchanges:
-        say(f"[solver]   {scheme.describe()}; {len(scheme.exchanges)} VecScatter exchange(s) of "
-            f"(u, v, a) per system step; external-data treatment: "
-            + ", ".join(f"{p.name} {t}" for p, t in zip(scene.partitions, treatments)))
-    else:
-        say(f"[solver]   {scheme.describe()}")
-    not_built = []
-    if not any(p.integrator == "implicit" for p in scene.partitions):
-        not_built.append("KSP (all partitions explicit)")
-    if not scheme.exchanges:
-        not_built.append("exchange (single partition)")
-    if not_built:
-        say(f"[solver]   not built: {', '.join(not_built)}")
-    scheme.initialise(mdl)
-    return Assembly(mdl, layouts, parts, scheme, freqs)
-
-
-# Measured on 2D bars (README, "Stability at larger eta"): an implicit partition
-# coupled to explicit ones stayed stable up to a step of 1.35x the explicit
-# partitions' critical step and went unstable from 1.9x; 1D chains stay below 1x.
-COUPLED_IMPLICIT_STEP = 1.4
-
-
-def coupled_step_warnings(scene, crit_by_rank) -> list[str]:
-    """Warnings for implicit partitions whose step exceeds COUPLED_IMPLICIT_STEP x
-    the smallest critical step of the explicit partitions they are coupled to."""
-    crit = {}
-    for chunk in crit_by_rank:
-        crit.update(chunk)
-    explicit = [crit[p.name] for p in scene.partitions if p.integrator != "implicit" and p.name in crit]
-    if not explicit or len(scene.partitions) < 2:
-        return []
-    limit = min(explicit)
-    out = []
-    for p in scene.partitions:
-        dt = p.ratio * scene.time.dt
-        if p.integrator == "implicit" and dt > COUPLED_IMPLICIT_STEP * limit:
-            out.append(f"implicit partition '{p.name}' steps {dt:.4g} s, {dt / limit:.2f} x the "
-                       f"critical step {limit:.4g} s of the explicit partitions it is coupled to; "
-                       f"coupled schemes have been found unstable beyond ~{COUPLED_IMPLICIT_STEP}x "
-                       "(the energy guard stops a blow-up)")
-    return out
 
 
 def check_reference(scene):
@@ -229,7 +58,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
 
     t_start = time.perf_counter()
     comm = comm or MPI.COMM_WORLD
-    rank, size = comm.rank, comm.size
+    rank = comm.rank
     say = log if rank == 0 else _silent
     problem = comm.bcast(output.check_writable(scene.output_file) if rank == 0 else None)
     if problem:
@@ -253,17 +82,9 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start)
     report.setup_wall = time.perf_counter() - t_start
-    checkpoint = None
     spec = scene.output.checkpoint if scene.output else None
-    if spec:
-        meta = {"fingerprint": state.fingerprint(scene), "scene": scene.name}
-
-        def checkpoint(k, wall):
-            data = state.collect(k, parts, guard, comm)
-            result = report.result(k, "running", "", wall)
-            if rank == 0:
-                output.write(scene.output_file, result, checkpoint=(data, meta))
-        checkpoint.every = spec.every
+    checkpoint = Checkpoint(spec.every, scene, parts, guard, comm, report) if spec else None
+    if checkpoint:
         checkpoint(start, 0.0)
 
     fields = None
@@ -288,6 +109,24 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     if failure:
         raise RunFailed(f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
     return result
+
+
+class Checkpoint:
+    """Writes the output file with the run state (:mod:`solver.state`) every
+    ``every`` system steps, status running, atomically."""
+
+    def __init__(self, every, scene, parts, guard, comm, report):
+        from .state import fingerprint
+        self.every, self.scene, self.parts, self.guard = every, scene, parts, guard
+        self.comm, self.report = comm, report
+        self.meta = {"fingerprint": fingerprint(scene), "scene": scene.name}
+
+    def __call__(self, k: int, wall: float):
+        from . import output, state
+        data = state.collect(k, self.parts, self.guard, self.comm)
+        result = self.report.result(k, "running", "", wall)
+        if self.comm.rank == 0:
+            output.write(self.scene.output_file, result, checkpoint=(data, self.meta))
 
 
 def peak_rss_mb() -> float:

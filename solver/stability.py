@@ -74,7 +74,6 @@ def check(scene, spec, model, held):
     integrator's (2 for explicit Newmark and Verlet, none for implicit average
     acceleration), lowered by Rayleigh damping for explicit ones to
     2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max."""
-    from . import integrators
     # what the partition steps: cells for fem, bonds (and overlap cells) for dem
     blocks = model.bond_blocks(held) if spec.method == "dem" else model.stiffness_blocks(held)
     dofs = (held[:, None] * model.dof + np.arange(model.dof)).ravel()
