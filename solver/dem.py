@@ -5,17 +5,19 @@ are views of the partition state.  Bonds are linear springs: scalar springs
 of a network (j = -1 for the ground), or the central bonds of a lattice
 (k n n^T blocks, see :mod:`solver.lattice`).  Bond forces are applied through
 the bond operator, the linear map x -> sum of bond forces, assembled once from
-the bonds the partition holds into PETSc AIJ (one MatMult per step).
+the bonds the partition holds (one MatMult per step), behind the force
+interface of :mod:`solver.force`.
 """
 from __future__ import annotations
 
+from .force import LinearForce
 from .partition import Partition
 
 
 class DemPartition(Partition):
     method = "dem"
 
-    def build_operator(self, model, layout):
+    def build_force(self, model, layout):
         n_p, dof = layout.n_held, self.dof
         self.fields = {
             "mass": self.mass.reshape(n_p, dof),
@@ -24,10 +26,11 @@ class DemPartition(Partition):
             "acceleration": self.A.reshape(n_p, dof),
             "global_id": layout.held,
         }
-        B = self.operator(model.bond_blocks(self.whole_held()), scale=-1.0)
+        blocks = model.bond_blocks(self.whole_held())
+        B = self.operator(blocks, scale=-1.0)
         B.setName(f"{self.name}_bonds")
         self.built = [f"particles {n_p} ({layout.n_owned} owned), fields "
                       f"{', '.join(self.fields)}",
                       f"bond operator {B.getSize()[0]}x{B.getSize()[0]} (type {B.getType()}, "
                       f"block size {dof})"]
-        return B
+        return LinearForce(B, blocks)

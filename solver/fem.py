@@ -14,6 +14,7 @@ the run with PETSc's reason.
 from __future__ import annotations
 
 from .errors import RunFailed
+from .force import LinearForce
 from .partition import Partition
 from .petscutil import init, vec_on
 
@@ -21,16 +22,17 @@ from .petscutil import init, vec_on
 class FemPartition(Partition):
     method = "fem"
 
-    def build_operator(self, model, layout):
+    def build_force(self, model, layout):
         blocks = model.stiffness_blocks(self.whole_held())
         K = self.operator(blocks, scale=-1.0)
         K.setName(f"{self.name}_stiffness")
         n = K.getSize()[0]
         self.built = [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
                       f"type {K.getType()}, block size {K.getBlockSize()})", "lumped mass"]
+        force = LinearForce(K, blocks)
         if self.integrator.name == "implicit":
-            self._build_solver(blocks)
-        return K
+            self._build_solver(force.blocks)
+        return force
 
     def _build_solver(self, blocks):
         P = init()

@@ -17,8 +17,9 @@ External-data treatments (``coupling.external``):
            external (u, v, a) at the new time come from the other partition:
            only owned rows are solved and corrected.
 
-Subclasses (:mod:`solver.fem`, :mod:`solver.dem`) build the stiffness
-operator ``Kneg = -K`` over the held DOFs.
+Subclasses (:mod:`solver.fem`, :mod:`solver.dem`) build the partition's force
+object (:mod:`solver.force`); the partition only asks it for the internal
+force, the strain energy and the tangent.
 """
 from __future__ import annotations
 
@@ -134,14 +135,20 @@ class Partition:
             self.alpha_m = vec_on(self._am, comm)
         for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
             getattr(self, name).setOptionsPrefix(self.prefix)
-        self.Kneg = self.build_operator(model, layout)
+        self.force = self.build_force(model, layout)
+        self._internal = self.force.internal
         self._step = self.integrator.bind(self)
         self.steps = 0
         self.wall = 0.0
 
     # ------------------------------------------------------------------ set-up
-    def build_operator(self, model, layout):
+    def build_force(self, model, layout):
         raise NotImplementedError
+
+    @property
+    def Kneg(self):
+        """The tangent dF/du (-K for linear partitions) as a PETSc Mat."""
+        return self.force.tangent()
 
     def operator(self, block_sets, scale=1.0, diagonal=None, solved=False):
         """This rank's rows of a matrix over the partition's held DOFs from
@@ -197,11 +204,11 @@ class Partition:
         """r = f(t) - K u - C v, C = alpha M + beta K (undamped partitions ignore v)."""
         if self.damping and v is not None:
             self.uv.waxpy(self.damping.beta, v, u)
-            self.Kneg.mult(self.uv, self.r)
+            self._internal(self.uv, self.r)
             self.am_v.pointwiseMult(self.alpha_m, v)
             self.r.axpy(-1.0, self.am_v)
         else:
-            self.Kneg.mult(u, self.r)
+            self._internal(u, self.r)
         for group in self._loads:
             group.apply(self.R, t)
 
@@ -265,9 +272,7 @@ class Partition:
         """
         n = self.n_own
         kinetic = 0.5 * float(np.dot(self.mass[:n], self.V[:n] ** 2))
-        self.Kneg.mult(self.u, self.r)
-        strain = -0.5 * float(np.dot(self.U[:n], self.R[:n]))
-        return kinetic, strain, self.work
+        return kinetic, self.force.energy(self), self.work
 
     def work_array(self, name: str) -> np.ndarray:
         """numpy view of an integrator work Vec (``ut``, ``vt`` for Newmark)."""
@@ -278,8 +283,9 @@ class Partition:
         return loc * self.dof + component
 
     def destroy(self):
-        for name in ("u", "v", "a", "r", "minv", "Kneg", *self.integrator.work):
+        for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
             getattr(self, name).destroy()
+        self.force.destroy()
         for vec in self._views:
             vec.destroy()
         if self.damping:

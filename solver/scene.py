@@ -10,249 +10,19 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from functools import cached_property
-from pathlib import Path
 from typing import Literal
 
 import numpy as np
-import yaml
 
-from . import generators
-from .errors import SceneError
-from .schema import convert, fail, key, parse, tagged
-
-GROUND = -1  # node id of the fixed end of a spring
-
-
-def _node_ref(value, path):
-    if value == "ground":
-        return GROUND
-    if isinstance(value, bool) or not isinstance(value, int):
-        fail(path, f"expected a node id or 'ground', got {value!r}")
-    if value < 0:
-        fail(path, f"node id must be non-negative, got {value}")
-    return value
-
-
-@dataclass(frozen=True)
-class Spring:
-    """A linear spring between two nodes (or a node and the ground)."""
-
-    i: int
-    j: int
-    stiffness: float
-
-
-def _springs(value, path):
-    if not isinstance(value, list):
-        fail(path, f"expected a list of [node_i, node_j, stiffness], got {value!r}")
-    out = []
-    for n, item in enumerate(value):
-        p = f"{path}[{n}]"
-        if not isinstance(item, list) or len(item) != 3:
-            fail(p, f"expected [node_i, node_j, stiffness], got {item!r}")
-        i, j = _node_ref(item[0], p), _node_ref(item[1], p)
-        if i == j:
-            fail(p, f"spring connects {item[0]!r} to itself")
-        k = convert(float, item[2], p, {"positive": True})
-        out.append(Spring(i, j, k))
-    return tuple(out)
+from .schema import fail, key
+from .scene_model import (GROUND, ChainGenerator, ContinuumModel, LatticeSpec, Material,  # noqa: F401
+                          MetamaterialGenerator, NetworkModel, Spring, _model, _node_set)
 
 
 @dataclass(frozen=True)
 class Time:
     end: float = key("end time of the run [s]", positive=True)
     dt: float = key("base step [s]; a partition steps ratio*dt", positive=True)
-
-
-@dataclass(frozen=True)
-class ChainGenerator:
-    name: Literal["chain"] = key("generator name")
-    n: int = key("number of masses", positive=True)
-    mass: float = key("mass of every node [kg]", positive=True)
-    stiffness: float = key("stiffness of every spring [N/m]", positive=True)
-    left: Literal["fixed", "free"] = key("left end tied to the ground or free", "fixed")
-    right: Literal["fixed", "free"] = key("right end tied to the ground or free", "free")
-
-    def build(self):
-        return generators.chain(self.n, self.mass, self.stiffness, self.left, self.right)
-
-
-@dataclass(frozen=True)
-class MetamaterialGenerator:
-    name: Literal["metamaterial"] = key("generator name")
-    M: int = key("shells before the resonator band", nonnegative=True)
-    N: int = key("shells carrying a resonator", nonnegative=True)
-    Q: int = key("shells after the resonator band", nonnegative=True)
-    shell_mass: float = key("m_s [kg]", positive=True)
-    resonator_mass: float = key("m_v [kg]", positive=True)
-    k_n: float = key("shell-shell spring and right-end ground spring [N/m]", positive=True)
-    k_s: float = key("shell-resonator spring [N/m]", positive=True)
-    resonators: bool = key("false: the plain chain of shells (seed 000 Fig. 8)", True)
-
-    def build(self):
-        return generators.metamaterial(self.M, self.N, self.Q, self.shell_mass,
-                                       self.resonator_mass, self.k_n, self.k_s, self.resonators)
-
-    def validate(self, path):
-        if self.M + self.N + self.Q < 1:
-            fail(path, "M + N + Q must be at least 1")
-
-
-_generator = tagged("name", {"chain": ChainGenerator, "metamaterial": MetamaterialGenerator})
-
-
-@dataclass(frozen=True)
-class NetworkModel:
-    """Lumped masses joined by linear springs, one DOF per node: given as
-    masses + springs, a generator, or a file."""
-
-    kind: Literal["network"] = key("model kind")
-    masses: tuple[float, ...] | None = key(
-        "mass of each node [kg]; the node ids are the list positions", None, positive=True)
-    springs: tuple[Spring, ...] | None = key(
-        "springs as [node_i, node_j, stiffness N/m]; 'ground' is a fixed end", None,
-        parse=_springs, choices_doc="list of [node|ground, node|ground, float]")
-    generator: ChainGenerator | MetamaterialGenerator | None = key(
-        "a named generator with its parameters (instead of masses and springs)", None,
-        parse=_generator, choices_doc="mapping with name: chain | metamaterial",
-        variants=(ChainGenerator, MetamaterialGenerator))
-    file: str | None = key("NPZ or HDF5 file with arrays mass, spring_i, spring_j (-1 = ground), "
-                           "stiffness; path relative to the working directory", None)
-
-    def validate(self, path):
-        if (self.masses is None) != (self.springs is None):
-            fail(f"{path}.{'springs' if self.springs is None else 'masses'}",
-                 "masses and springs are given together")
-        given = [k for k in ("masses", "generator", "file") if getattr(self, k) is not None]
-        if len(given) != 1:
-            fail(path, "give exactly one of masses + springs, generator, file "
-                 f"({', '.join(given) or 'none'} given)")
-        if self.file is not None and not Path(self.file).is_file():
-            fail(f"{path}.file", f"{self.file}: file not found")
-        where = {"masses": (f"{path}.masses", f"{path}.springs"),
-                 "generator": (f"{path}.generator",) * 2,
-                 "file": (f"{path}.file {self.file}: mass", f"{path}.file {self.file}: spring")}
-        try:
-            self.network.validate(*where[given[0]])
-        except (ValueError, OSError, KeyError) as e:
-            fail("", str(e))
-
-    @cached_property
-    def network(self) -> generators.Network:
-        if self.generator is not None:
-            return self.generator.build()
-        if self.file is not None:
-            return generators.from_file(self.file)
-        return generators.Network(
-            mass=np.asarray(self.masses, dtype=float),
-            spring_i=np.array([sp.i for sp in self.springs], dtype=np.int64),
-            spring_j=np.array([sp.j for sp in self.springs], dtype=np.int64),
-            stiffness=np.array([sp.stiffness for sp in self.springs], dtype=float),
-            groups={"nodes": (0, len(self.masses))})
-
-    @property
-    def n_nodes(self) -> int:
-        return int(self.network.mass.size)
-
-
-@dataclass(frozen=True)
-class Material:
-    E: float = key("Young's modulus [Pa]", positive=True)
-    nu: float = key("Poisson's ratio", nonnegative=True)
-    rho: float = key("density [kg/m^3]", positive=True)
-    kind: Literal["plane_stress", "plane_strain", "solid"] = key(
-        "plane_stress (2D, with thickness), plane_strain (2D) or solid (3D)", "solid")
-    thickness: float = key("out-of-plane thickness [m] (plane_stress)", 1.0, positive=True)
-
-    def validate(self, path):
-        if not self.nu < 0.5:
-            fail(f"{path}.nu", f"{self.nu} must be below 0.5")
-
-    def elastic(self):
-        from .elements import Elastic
-        return Elastic(self.E, self.nu, self.rho, self.kind, self.thickness)
-
-
-@dataclass(frozen=True)
-class LatticeSpec:
-    region: str = key("physical group (cells) filled with the bonded lattice")
-    spacing: float = key("lattice spacing a [m]; the mesh must have a node at every lattice site "
-                         "of the region and one spacing around it", positive=True)
-    kind: Literal["square"] = key("square: square lattice with diagonal bonds in 2D (nu = 1/3 "
-                                  "plane stress, 1/4 plane strain), simple cubic with face "
-                                  "diagonals in 3D (nu = 1/4)", "square")
-
-
-@dataclass(frozen=True)
-class ContinuumModel:
-    """An elastic body meshed with gmsh; nodes carry dim DOFs."""
-
-    kind: Literal["continuum"] = key("model kind")
-    mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the working directory")
-    material: Material = key("linear elastic material")
-    body: str = key("physical group of the body's cells", "solid")
-    fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())
-    lattice: LatticeSpec | None = key("bonded DEM lattice for dem partitions", None)
-    mesh_parameters: dict[str, float] = key("numbers defined before the .geo is read (the .geo "
-                                            "keeps its default with If (!Exists(a)) ...), "
-                                            "e.g. {a: 4.0e-4}", {})
-
-    def validate(self, path):
-        if not self.mesh.endswith((".geo", ".msh")):
-            fail(f"{path}.mesh", f"{self.mesh}: expected a .geo or .msh file")
-        try:
-            m = self.mesh_data
-        except SceneError as e:
-            fail(f"{path}.mesh", str(e))
-        m.group(self.body, f"{path}.body")
-        for name in self.fixed:
-            m.group(name, f"{path}.fixed")
-        if self.lattice is not None:
-            m.group(self.lattice.region, f"{path}.lattice.region")
-        wants = "solid" if m.dim == 3 else ("plane_stress", "plane_strain")
-        if (m.dim == 3) != (self.material.kind == "solid"):
-            fail(f"{path}.material.kind", f"{self.material.kind} does not fit a {m.dim}D mesh "
-                 f"(use {wants})")
-
-    @cached_property
-    def mesh_data(self):
-        from .mesh import read
-        return read(self.mesh, parameters=self.mesh_parameters)
-
-    @property
-    def n_nodes(self) -> int:
-        return len(self.mesh_data.points)
-
-    @property
-    def dim(self) -> int:
-        return self.mesh_data.dim
-
-
-_model = tagged("kind", {"network": NetworkModel, "continuum": ContinuumModel})
-
-
-def _node_set(value, path):
-    """Node ids as a list of ids and {range: [first, end)} items, or one range."""
-    items = [value] if isinstance(value, dict) else value
-    if not isinstance(items, list):
-        fail(path, f"expected a list of node ids or ranges, got {value!r}")
-    out = []
-    for n, item in enumerate(items):
-        p = f"{path}[{n}]"
-        if isinstance(item, dict):
-            if set(item) != {"range"}:
-                fail(p, f"a node range is {{range: [first, end]}}, got {item!r}")
-            r = item["range"]
-            if (not isinstance(r, list) or len(r) != 2 or
-                    any(isinstance(x, bool) or not isinstance(x, int) for x in r) or not 0 <= r[0] < r[1]):
-                fail(f"{p}.range", f"expected [first, end] with 0 <= first < end, got {r!r}")
-            out.extend(range(r[0], r[1]))
-        elif isinstance(item, int) and not isinstance(item, bool) and item >= 0:
-            out.append(item)
-        else:
-            fail(p, f"expected a node id or {{range: [first, end]}}, got {item!r}")
-    return tuple(out)
 
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
@@ -529,15 +299,15 @@ class Scene:
                 fail(f"partitions[{p}].ratio", f"{part.ratio} does not divide the largest ratio {big}")
         if self.n_system_steps < 1:
             fail("time.end", f"{self.time.end} is shorter than one system step ({self.system_dt})")
-        for i, load in enumerate(self.loads):
-            if load.group is not None:
+        for i, ld in enumerate(self.loads):
+            if ld.group is not None:
                 if not continuum:
                     fail(f"loads[{i}].group", "tractions on groups need a continuum model")
-                self.model.mesh_data.group(load.group, f"loads[{i}].group")
-                if load.direction is not None and len(load.direction) != self.dof:
+                self.model.mesh_data.group(ld.group, f"loads[{i}].group")
+                if ld.direction is not None and len(ld.direction) != self.dof:
                     fail(f"loads[{i}].direction", f"needs {self.dof} components")
             else:
-                self._check_dof(f"loads[{i}]", load.node, load.component)
+                self._check_dof(f"loads[{i}]", ld.node, ld.component)
         for kind in ("displacement", "velocity"):
             for node in getattr(self.initial, kind):
                 self._check_dof(f"initial.{kind}.{node}", node, 0)
@@ -603,91 +373,5 @@ class Scene:
                  f"{self.dof} DOF)")
 
 
-# ---------------------------------------------------------------------------
-def apply_override(raw: dict, assignment: str) -> None:
-    """Apply ``key.path=value`` to raw scene data.  List items are addressed by
-    index or, for lists of named mappings (partitions, probes), by name."""
-    if "=" not in assignment:
-        raise SceneError(f"--set {assignment}: expected key.path=value")
-    path, text = assignment.split("=", 1)
-    value = yaml_load(text) if text.strip() else None
-    parts = path.split(".")
-    node = raw
-    for depth, part in enumerate(parts):
-        last = depth == len(parts) - 1
-        where = ".".join(parts[:depth + 1])
-        if isinstance(node, list):
-            idx = _list_index(node, part, where)
-            if last:
-                node[idx] = value
-                return
-            node = node[idx]
-        elif isinstance(node, dict):
-            if last:
-                node[part] = value
-                return
-            if part not in node or node[part] is None:
-                node[part] = {}
-            node = node[part]
-        else:
-            raise SceneError(f"--set {path}: '{'.'.join(parts[:depth])}' is not a section")
-
-
-def _list_index(items: list, part: str, where: str) -> int:
-    if part.lstrip("-").isdigit():
-        idx = int(part)
-        if -len(items) <= idx < len(items):
-            return idx
-        raise SceneError(f"--set {where}: index out of range ({len(items)} items)")
-    for idx, item in enumerate(items):
-        if isinstance(item, dict) and item.get("name") == part:
-            return idx
-    raise SceneError(f"--set {where}: no item named {part!r}")
-
-
-class _Loader(yaml.SafeLoader):
-    """SafeLoader that also reads YAML 1.2 floats such as ``1e-6`` as numbers."""
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-                |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-                |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-                |[-+]?\.(?:inf|Inf|INF)
-                |\.(?:nan|NaN|NAN))$""", re.X),
-    list("-+0123456789."))
-
-
-def yaml_load(text: str):
-    return yaml.load(text, Loader=_Loader)
-
-
-def load_raw(path: str | Path) -> dict:
-    p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"{path}: scene file not found")
-    try:
-        raw = yaml_load(p.read_text())
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" line {mark.line + 1}" if mark else ""
-        raise SceneError(f"{path}:{where} not valid YAML ({getattr(e, 'problem', e)})") from None
-    if not isinstance(raw, dict):
-        raise SceneError(f"{path}: a scene is a YAML mapping")
-    return raw
-
-
-def from_dict(raw: dict) -> Scene:
-    return parse(Scene, raw).resolved()
-
-
-def load(path: str | Path, overrides=()) -> Scene:
-    """Read, override and validate a scene file.  Errors name the file and key."""
-    raw = load_raw(path)
-    for assignment in overrides:
-        apply_override(raw, assignment)
-    try:
-        return from_dict(raw)
-    except SceneError as e:
-        raise SceneError(f"{path}: {e}") from None
+# the scene file's reading and overrides live in solver/scene_file.py
+from .scene_file import (apply_override, from_dict, load, load_raw, yaml_load)  # noqa: E402,F401

@@ -1,0 +1,40 @@
+"""What a partition asks for its internal force: the force interface.
+
+A partition steps ``m a = f_ext(t) + f_int(u) - C v`` and never looks inside
+``f_int``: it calls its force object's ``internal(u, out)`` (out = f_int(u)),
+asks ``energy(partition)`` for the strain energy of its owned DOFs (the
+energy guard), ``tangent()`` for dF/du (the stability bound and, for implicit
+partitions, K_eff) and ``blocks`` for the element blocks the tangent is
+assembled from.  :class:`LinearForce` is the one implementation today: the
+assembled operator -K (a PETSc Mat), so ``internal`` is one MatMult.  A
+breaking or contacting DEM replaces it with a force whose ``internal``
+evaluates bonds and contacts at the current state and whose tangent changes.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class LinearForce:
+    """f_int(u) = -K u with K assembled once from element ``blocks``."""
+
+    linear = True
+
+    def __init__(self, Kneg, blocks):
+        self.operator = Kneg              # -K over the partition's held DOFs (this rank's rows)
+        self.blocks = blocks              # element block sets K was assembled from
+        self.internal = Kneg.mult         # internal(u, out): out = -K u (bound: one call per step)
+
+    def tangent(self):
+        """dF/du = -K (the operator itself)."""
+        return self.operator
+
+    def energy(self, part) -> float:
+        """Strain energy of the owned DOFs: 1/2 sum_owned u_i (K u)_i, which sums to
+        1/2 u^T K u over all pieces because owned rows of a piece's K are complete."""
+        n = part.n_own
+        self.operator.mult(part.u, part.r)
+        return -0.5 * float(np.dot(part.U[:n], part.R[:n]))
+
+    def destroy(self):
+        self.operator.destroy()
