@@ -102,9 +102,12 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
     if scene.reference != "none" and not failure and result.probes:
         add_reference(result, mdl, scene, comm, say)
+    # a completed run keeps its final state (restart with a later time.end to go on);
+    # a failed one keeps its last good checkpoint
+    final = checkpoint.final(done, failure) if checkpoint else None
     asm.destroy()
     if rank == 0:
-        output.write(scene.output_file, result)
+        output.write(scene.output_file, result, checkpoint=final)
     comm.barrier()
     if failure:
         raise RunFailed(f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
@@ -126,7 +129,17 @@ class Checkpoint:
         data = state.collect(k, self.parts, self.guard, self.comm)
         result = self.report.result(k, "running", "", wall)
         if self.comm.rank == 0:
-            output.write(self.scene.output_file, result, checkpoint=(data, self.meta))
+            self.last = (data, self.meta)
+            output.write(self.scene.output_file, result, checkpoint=self.last)
+
+    def final(self, done: int, failure):
+        """What the final file keeps: the state at ``done`` (collective), or after
+        a failure the last checkpoint written (rank 0; None elsewhere)."""
+        from .state import collect
+        if failure:
+            return getattr(self, "last", None)
+        data = collect(done, self.parts, self.guard, self.comm)
+        return (data, self.meta) if data is not None else None
 
 
 def peak_rss_mb() -> float:

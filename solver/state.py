@@ -14,7 +14,8 @@ Newmark's predictors (u~, v~) are recomputed at every step and are not state.
 :func:`collect` gathers this to rank 0; :func:`restore` puts it back into a
 freshly built run.  A checkpoint is the output file itself (``/checkpoint``
 beside the histories), written atomically, so the file is valid at every
-instant.  :func:`fingerprint` identifies the scene a checkpoint belongs to:
+instant; a completed file keeps its final state (a restart with a later
+time.end continues it) and a failed one its last good checkpoint.  :func:`fingerprint` identifies the scene a checkpoint belongs to:
 everything but ``time.end`` (a restart may run longer) and ``output``.
 """
 from __future__ import annotations

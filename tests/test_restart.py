@@ -62,7 +62,7 @@ def test_killed_run_restarts_to_the_same_histories(tmp_path, n_first, n_restart)
     ref = scene(tmp_path, "whole")
     assert run_cli([ref]).returncode == 0
     whole = histories(tmp_path / "whole.h5")
-    assert not whole["has_checkpoint"]             # a completed file carries no checkpoint
+    assert whole["has_checkpoint"]                 # a completed file keeps its final state
     cut = scene(tmp_path, "cut")
     out = tmp_path / "cut.h5"
     cmd = [sys.executable, "-m", "solver", str(cut)]
@@ -81,6 +81,24 @@ def test_killed_run_restarts_to_the_same_histories(tmp_path, n_first, n_restart)
         else:
             scale = np.abs(whole[key]).max()
             assert np.abs(again[key] - whole[key]).max() <= 1e-12 * scale, key
+
+
+def test_a_completed_run_goes_on_with_a_later_end(tmp_path):
+    """Restarting a completed run with a larger time.end continues it: the same
+    histories, bitwise, as one run to the later end."""
+    ref = scene(tmp_path, "whole")
+    fixed = ["--set", "output.energy_every=20"]
+    assert run_cli([ref, *fixed]).returncode == 0
+    short = scene(tmp_path, "short")
+    out = tmp_path / "short.h5"
+    assert run_cli([short, *fixed, "--set", "time.end=8.0"]).returncode == 0
+    with h5py.File(out) as f:
+        assert f.attrs["status"] == "completed" and f["checkpoint"].attrs["step"] == 16000
+    proc = run_cli([short, *fixed, "--restart", out])
+    assert proc.returncode == 0, proc.stderr
+    a, b = histories(tmp_path / "whole.h5"), histories(out)
+    for key in ("u", "v", "E", "W"):
+        assert np.array_equal(a[key], b[key]), key
 
 
 def sha(path):
