@@ -123,6 +123,8 @@ def main(argv=None) -> int:
         comm = MPI.COMM_WORLD
         rank = comm.rank
         check_launch(comm)
+        from . import mesh
+        mesh.read_on(comm)                  # rank 0 meshes/reads, the others receive
         from . import scene as scene_mod
         scene = scene_mod.load(path, overrides)
         from .petscutil import init

@@ -1,6 +1,7 @@
 """Meshes from gmsh: a .geo meshed through the gmsh API, or a .msh read by it.
 
-Read on one rank and broadcast (``read(path, comm)``).  Scenes name physical
+Read on rank 0 and broadcast (``read(path, comm)``; the command line reads
+every scene's mesh this way, see ``READER``).  Scenes name physical
 groups, not tags: ``Mesh.group(name)`` returns a group or raises a one-line
 error that lists the groups the mesh has.  Cells of the top dimension are
 kept per family (tri3, quad4, tet4, hex8); lower-dimensional groups keep their
@@ -88,6 +89,19 @@ def _read_gmsh(path: str, dim: int | None, parameters: dict) -> Mesh:
         return Mesh(points, top, groups)
     finally:
         gmsh.finalize()
+
+
+# The communicator scenes read their meshes on (None: every process reads its own).
+# The command line sets COMM_WORLD, where every rank loads the scene in step, so
+# rank 0 meshes or reads the file once and broadcasts it; scripts keep None
+# unless they load scenes on every rank in step (:func:`read_on`).
+READER = None
+
+
+def read_on(comm):
+    """Scenes loaded from now on read their meshes on rank 0 of ``comm`` (collective)."""
+    global READER
+    READER = comm if comm is not None and comm.size > 1 else None
 
 
 def read(path: str, comm=None, dim: int | None = None, parameters: dict | None = None) -> Mesh:

@@ -206,8 +206,8 @@ class ContinuumModel:
 
     @cached_property
     def mesh_data(self):
-        from .mesh import read
-        return read(self.mesh, parameters=self.mesh_parameters)
+        from . import mesh
+        return mesh.read(self.mesh, comm=mesh.READER, parameters=self.mesh_parameters)
 
     @property
     def n_nodes(self) -> int:
