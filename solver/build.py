@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from . import model as model_mod
+from . import overlap
 from .petscutil import init
 from .schemes import scheme_class
 
@@ -45,7 +46,7 @@ def build(scene, comm, say=_silent) -> Assembly:
     n_sys = scene.n_system_steps
     Dt = scene.system_dt
 
-    mdl = model_mod.build(scene)
+    mdl = model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments))
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     scheme = scheme_cls.build(scene, mdl, comm, say)

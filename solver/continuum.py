@@ -112,22 +112,20 @@ def facet_forces(mesh, group_name, where):
     return w
 
 
-def attach_lattice(scene, mesh, mass, cells):
+def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     """Bonds, overlap cells and particle masses of the scene's lattice on the mesh
     nodes that coincide with its sites: (bonds, overlap cells, mass with particle
-    masses for dem-owned nodes)."""
+    masses for dem-owned nodes).  The lattice reaches ``reach`` spacings beyond
+    its region (the external layers of the dem partitions, which the coupling
+    stage decides), so that external particles carry their bonds."""
     from .errors import SceneError
     from .lattice import cubic, merge, square
     spec, mat = scene.model.lattice, scene.model.material
     region = mesh.group(spec.region, "model.lattice.region")
     pts = mesh.points
     a = spec.spacing
-    # the lattice reaches as many spacings beyond the region as a dem partition has
-    # external layers, so that its external particles carry their bonds
-    layers = max([scene.system_ratio // p.ratio if scene.coupling.external == "layers" else 1
-                  for p in scene.partitions if p.method == "dem"] or [1])
-    lo = pts[region.nodes].min(axis=0) - layers * a
-    hi = pts[region.nodes].max(axis=0) + layers * a
+    lo = pts[region.nodes].min(axis=0) - reach * a
+    hi = pts[region.nodes].max(axis=0) + reach * a
     lo, hi = np.maximum(lo, pts.min(axis=0)), np.minimum(hi, pts.max(axis=0))
     shape = np.rint((hi - lo) / a).astype(int) + 1
     try:
@@ -185,7 +183,8 @@ def attach_lattice(scene, mesh, mass, cells):
     return (bi, bj, bk), overlap, mass
 
 
-def build(scene) -> ContinuumArrays:
+def build(scene, reach: int = 1) -> ContinuumArrays:
+    """The continuum model; ``reach``: external layers of dem partitions (lattice extent)."""
     spec = scene.model
     mesh = spec.mesh_data
     dim = mesh.dim
@@ -213,6 +212,6 @@ def build(scene) -> ContinuumArrays:
     n = len(mesh.points) * dim
     bonds, overlap = (), ()
     if spec.lattice is not None:
-        bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells)
+        bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells, reach)
     return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
                            np.zeros(n), bonds, overlap)

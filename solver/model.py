@@ -123,11 +123,15 @@ def spring_triplets(li, lj, k):
     return rows.astype(np.int64), cols.astype(np.int64), vals
 
 
-def build(scene: Scene):
-    """Arrays of the scene's model (network or continuum)."""
+def build(scene: Scene, layers=None):
+    """Arrays of the scene's model (network or continuum).  ``layers``: external
+    layers of every partition, as the coupling scheme's treatments give them
+    (a lattice reaches as far as its dem partitions' layers; default 1)."""
     if scene.model.kind == "continuum":
         from . import continuum
-        return continuum.build(scene)
+        reach = max([n for n, p in zip(layers or [], scene.partitions) if p.method == "dem"]
+                    or [1])
+        return continuum.build(scene, reach)
     return build_network(scene)
 
 
