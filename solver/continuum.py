@@ -76,17 +76,22 @@ class ContinuumArrays:
         return out + self._cell_blocks(self.overlap_cells, held)
 
     def neighbours(self) -> list[np.ndarray]:
-        pairs = []
+        """Adjacent nodes of every node (through cells or bonds), sorted.  Edge
+        keys a * n + b are made and reduced in chunks of cells, so the
+        temporaries stay small on large meshes."""
+        n = np.int64(self.n_nodes)
+        keys = []
         for _, conn, _ in self.cells:
             k = conn.shape[1]
-            a = np.repeat(conn, k, axis=1).ravel()
-            b = np.tile(conn, (1, k)).ravel()
-            pairs.append(np.stack([a, b])[:, a != b])
+            off = ~np.eye(k, dtype=bool)
+            for s in range(0, len(conn), 32768):
+                c = conn[s:s + 32768].astype(np.int64)
+                key = (c[:, :, None] * n + c[:, None, :])[:, off]
+                keys.append(np.unique(key))
         if self.bonds:
             bi, bj, _ = self.bonds
-            pairs.append(np.stack([np.concatenate([bi, bj]), np.concatenate([bj, bi])]))
-        n = np.int64(self.n_nodes)
-        key = np.unique(np.concatenate([p[0] * n + p[1] for p in pairs]))
+            keys.append(np.concatenate([bi * n + bj, bj * n + bi]))
+        key = np.unique(np.concatenate(keys)) if keys else np.zeros(0, dtype=np.int64)
         a, b = key // n, key % n
         cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
         return np.split(b, cuts[1:-1])

@@ -187,9 +187,16 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
 
 
 def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
-    """Nodal masses rho * integral(N_a) per element node [n_el, n_nodes]."""
-    N, _, wdet = _geometry(family, X)
-    return material.rho * material.measure() * np.einsum("eq,qa->ea", wdet, N)
+    """Nodal masses rho * integral(N_a) per element node [n_el, n_nodes]
+    (in chunks: the geometry temporaries stay small on large meshes)."""
+    out = np.empty((X.shape[0], family.n_nodes))
+    for s in range(0, X.shape[0], CHUNK):
+        try:
+            N, _, wdet = _geometry(family, X[s:s + CHUNK])
+        except BadElement as e:
+            raise BadElement(e.index + s, e.detj) from None
+        out[s:s + CHUNK] = material.rho * material.measure() * np.einsum("eq,qa->ea", wdet, N)
+    return out
 
 
 def volumes(family: Family, X: np.ndarray) -> np.ndarray:

@@ -47,25 +47,50 @@ def omega_max(block_sets, held, mass: np.ndarray, dof: int) -> Frequency:
     return None                      # larger: from the assembled operator (gershgorin)
 
 
+ROWS_PER_CHUNK = 60000      # rows of the operator scaled at a time by gershgorin
+
+
 def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
     """Gershgorin bound of M^-1/2 K M^-1/2 from a partition's assembled operator
     (this rank's rows; collective): max_i sum_j |K_ij| s_i s_j with s = m^-1/2
-    and 0 on fixed DOFs, as PETSc's infinity norm of a diagonally scaled copy."""
+    and 0 on fixed DOFs, as PETSc's infinity norm of diagonally scaled row
+    chunks (MatCreateSubMatrix), so only a chunk is ever copied."""
     from .petscutil import init
     P = init()
+    comm = Kneg.getComm().tompi4py()
     s = np.where(fixed, 0.0, 1.0 / np.sqrt(mass))
-    B = Kneg.duplicate(copy=True)
-    v = B.createVecLeft()
-    v.setArray(s)
-    try:
-        B.diagonalScale(v, v)
-    except P.Error:                  # a type without diagonal scaling (e.g. dense, SELL)
-        B.convert("aij")
-        B.diagonalScale(v, v)
-    radius = B.norm(P.NormType.NORM_INFINITY)
-    B.destroy()
-    v.destroy()
+    bs = Kneg.getBlockSize()
+    lo, hi = Kneg.getOwnershipRange()
+    step = max(bs, ROWS_PER_CHUNK // bs * bs)
+    n_chunks = comm.allreduce(-(-(hi - lo) // step), op=_max())
+    right = Kneg.createVecRight()
+    right.setArray(s)
+    cols = P.IS().createStride(hi - lo, lo, 1, comm=Kneg.getComm())
+    cols.setBlockSize(bs)
+    radius = 0.0
+    for c in range(n_chunks):
+        a, b = min(lo + c * step, hi), min(lo + (c + 1) * step, hi)
+        rows = P.IS().createStride(b - a, a, 1, comm=Kneg.getComm())
+        rows.setBlockSize(bs)
+        B = Kneg.createSubMatrix(rows, cols)
+        left = B.createVecLeft()
+        left.setArray(s[a - lo:b - lo])
+        try:
+            B.diagonalScale(left, right)
+        except P.Error:              # a type without diagonal scaling (e.g. dense, SELL)
+            B.convert("aij")
+            B.diagonalScale(left, right)
+        radius = max(radius, B.norm(P.NormType.NORM_INFINITY))
+        for obj in (B, left, rows):
+            obj.destroy()
+    for obj in (right, cols):
+        obj.destroy()
     return Frequency(float(np.sqrt(radius)), "Gershgorin bound")
+
+
+def _max():
+    from mpi4py import MPI
+    return MPI.MAX
 
 
 def check(scene, spec, model, held):
