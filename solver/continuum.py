@@ -67,12 +67,8 @@ class ContinuumArrays:
             bi, bj, k = self.bonds
             inh = self._held(held)
             keep = inh[bi] & inh[bj]
-            bi, bj, k = bi[keep], bj[keep], k[keep]
-            n = self.points[bj] - self.points[bi]
-            n = n / np.linalg.norm(n, axis=1)[:, None]
-            nn = k[:, None, None] * np.einsum("bi,bj->bij", n, n)
-            Ke = np.block([[nn, -nn], [-nn, nn]])
-            out.append((np.stack([bi, bj], axis=1), Ke))
+            conn = np.stack([bi[keep], bj[keep]], axis=1)
+            out.append((conn, BondStiffness(self.points, conn, k[keep])))
         return out + self._cell_blocks(self.overlap_cells, held)
 
     def neighbours(self) -> list[np.ndarray]:
@@ -95,6 +91,24 @@ class ContinuumArrays:
         a, b = key // n, key % n
         cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
         return np.split(b, cuts[1:-1])
+
+
+class BondStiffness:
+    """Blocks k n n^T [[1, -1], [-1, 1]] of central bonds, computed when asked
+    (``blocks[idx]``), like :class:`solver.assembly.CellStiffness`."""
+
+    def __init__(self, points, conn, k):
+        self.points, self.conn, self.k = points, conn, k
+
+    def __len__(self) -> int:
+        return len(self.conn)
+
+    def __getitem__(self, idx) -> np.ndarray:
+        c, k = self.conn[idx], self.k[idx]
+        n = self.points[c[:, 1]] - self.points[c[:, 0]]
+        n = n / np.linalg.norm(n, axis=1)[:, None]
+        nn = k[:, None, None] * np.einsum("bi,bj->bij", n, n)
+        return np.block([[nn, -nn], [-nn, nn]])
 
 
 def facet_forces(mesh, group_name, where):

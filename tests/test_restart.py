@@ -122,6 +122,15 @@ def test_bad_restart_files_are_refused(tmp_path):
     trunc = tmp_path / "trunc.h5"
     trunc.write_bytes(out.read_bytes()[:4096])
     cases.append(([cut, "--restart", trunc], "not a readable checkpoint"))
+    other_version = tmp_path / "v0.h5"
+    other_version.write_bytes(out.read_bytes())
+    with h5py.File(other_version, "r+") as f:
+        f["checkpoint"].attrs["format"] = "mts-checkpoint 0"
+    cases.append(([cut, "--restart", other_version],
+                  "checkpoint format 'mts-checkpoint 0', this version reads 'mts-checkpoint 1'"))
+    done = scene(tmp_path, "done")
+    assert run_cli([done, "--set", "output.checkpoint=null"]).returncode == 0
+    cases.append(([done, "--restart", tmp_path / "done.h5"], "has no checkpoint"))
     for args, words in cases:
         proc = run_cli(args)
         assert proc.returncode == 2, (args, proc.stderr)
