@@ -27,8 +27,10 @@ class _Clocks:
     """Wall time of partitions and exchanges, and PETSc logging stages (one per
     partition, one for the exchange) when PETSc logging is on (-log_view)."""
 
-    def __init__(self, parts):
-        self._stages = {p.name: Stage(p.name) for p in parts}
+    def __init__(self, parts, names=None):
+        # every rank registers every partition's stage in the same order (PETSc
+        # matches stages across ranks by registration order), then the exchange
+        self._stages = {n: Stage(n) for n in (names or [p.name for p in parts])}
         self._stage_x = Stage("exchange")
         self.exchange_wall = 0.0
         self.logging = init().Log.isActive()
@@ -78,7 +80,7 @@ class ConcurrentOverlap:
         need = any(d.layout.layers for d in dists)
         self.exchange = Exchange(comm, dists, ranks, parts, dof) if need else None
         self.exchanges = [self.exchange] if need else []
-        self.clocks = _Clocks(parts)
+        self.clocks = _Clocks(parts, [p.name for p in scene.partitions])
 
     def describe(self) -> str:
         return "concurrent overlap scheme (seed 000): advance all partitions, then exchange"
@@ -128,7 +130,7 @@ class Staggered(ConcurrentOverlap):
         self.to_explicit = Exchange(comm, dists, ranks, parts, dof, receivers={1 - i})
         self.exchanges = [self.to_implicit, self.to_explicit]
         self.exchange = None
-        self.clocks = _Clocks(parts)
+        self.clocks = _Clocks(parts, [p.name for p in scene.partitions])
 
     def describe(self) -> str:
         return ("staggered scheme (seed 002): explicit sub-cycle, then the implicit solve with "
