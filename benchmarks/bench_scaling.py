@@ -74,7 +74,8 @@ def partition_table(a, counts):
     layouts = overlap.derive(nb, scene.partitions, overlap.layer_counts(scene.partitions, treat))
     R = scene.system_ratio
     dof = mdl.dof
-    costs = [ranks.cost(owned_nonzeros(nb, lay.owned, dof), R // p.ratio)
+    graph = overlap.csr(nb)
+    costs = [ranks.cost(owned_nonzeros(graph, lay.owned, dof), R // p.ratio)
              for lay, p in zip(layouts, scene.partitions)]
     rows = []
     for N in counts:

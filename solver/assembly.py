@@ -138,7 +138,7 @@ def matrix(block_sets, number, n_local: int, n_global: int, first: int, dof: int
         d.setArray(np.asarray(diagonal, dtype=float))
         A.setDiagonal(d, addv=P.InsertMode.ADD_VALUES)
         d.destroy()
-    if A.getType() != wanted and "aij" not in wanted:
+    if "aij" not in wanted:
         A.convert(wanted)                       # in place
         A.setOptionsPrefix(prefix)
     return A
@@ -159,14 +159,6 @@ def _graph_nnz(graph, number, lo, hi):
     d = np.bincount(row[diag], minlength=hi - lo) + 1            # + the node itself
     o = np.bincount(row[inside & ~diag], minlength=hi - lo)
     return d, o
-
-
-def csr(neighbours):
-    """(indptr, indices) of a list of neighbour arrays."""
-    deg = np.array([len(x) for x in neighbours], dtype=np.int64)
-    indptr = np.concatenate([[0], np.cumsum(deg)])
-    indices = np.concatenate(neighbours) if len(neighbours) else np.zeros(0, dtype=np.int64)
-    return indptr, indices.astype(np.int64)
 
 
 def nodal(values: np.ndarray, conn: np.ndarray, n_nodes: int) -> np.ndarray:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .overlap import Layout
+from .overlap import Layout, csr
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,16 @@ class Distribution:
         return self.layout.n_held
 
 
+def whole(layout: Layout, n_nodes: int) -> Distribution:
+    """``layout`` as one piece in its own node order (a partition not split over
+    ranks, e.g. the GC subdomains)."""
+    piece = Piece(layout.name, layout.index, layout.owned, layout.boundary, layout.interior,
+                  layout.layers, layout.external_owner)
+    number = np.full(n_nodes, -1, dtype=np.int64)
+    number[piece.held] = np.arange(piece.n_held)
+    return Distribution(layout, (piece,), number)
+
+
 def rcm(nodes: np.ndarray, neighbours) -> np.ndarray:
     """``nodes`` in reverse Cuthill-McKee order of the graph they induce."""
     from .petscutil import init
@@ -52,9 +62,9 @@ def rcm(nodes: np.ndarray, neighbours) -> np.ndarray:
     P = init()
     local = np.full(len(neighbours), -1, dtype=np.int64)
     local[nodes] = np.arange(n)
-    nbs = [neighbours[g] for g in nodes.tolist()]
-    r = np.repeat(np.arange(n), [len(x) for x in nbs])
-    c = local[np.concatenate(nbs)] if nbs else np.zeros(0, dtype=np.int64)
+    indptr, cols = csr([neighbours[g] for g in nodes.tolist()])
+    r = np.repeat(np.arange(n), np.diff(indptr))
+    c = local[cols]
     inside = c >= 0
     r = np.concatenate([np.arange(n), r[inside]])
     c = np.concatenate([np.arange(n), c[inside]])

@@ -93,8 +93,7 @@ class GravouilCombescure:
                               scene.damping)
         for part in (self.A, self.B):               # too large for the dense check
             if self.freqs[part.name][0] is None:
-                fr = stability.gershgorin(part.Kneg, part.mass, part.fixed_dofs)
-                crit, problem = stability.verdict(scene, part.spec, fr)
+                fr, crit, problem = stability.assembled(scene, part)
                 self.freqs[part.name] = (fr, crit)
                 if problem:
                     raise StabilityError(f"{problem} (GC subdomain, interface mass halved)")

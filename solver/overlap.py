@@ -52,6 +52,14 @@ class Layout:
         return np.where(hit, order[pos], -1)
 
 
+def csr(neighbours):
+    """(indptr, indices) of a list of neighbour arrays: the node graph as arrays."""
+    deg = np.array([len(x) for x in neighbours], dtype=np.int64)
+    indptr = np.concatenate([[0], np.cumsum(deg)])
+    indices = np.concatenate(neighbours) if len(neighbours) else np.zeros(0, dtype=np.int64)
+    return indptr, indices.astype(np.int64)
+
+
 def owner_map(n_nodes: int, partitions) -> np.ndarray:
     """Owning partition index of every node."""
     owner = np.full(n_nodes, -1, dtype=np.int64)
@@ -68,9 +76,8 @@ def derive(neighbours: list[np.ndarray], partitions, n_layers) -> list[Layout]:
     """
     n = len(neighbours)
     owner = owner_map(n, partitions)
-    degree = np.array([len(x) for x in neighbours], dtype=np.int64)
-    row = np.repeat(np.arange(n), degree)
-    col = np.concatenate(neighbours) if n else np.zeros(0, dtype=np.int64)
+    indptr, col = csr(neighbours)
+    row = np.repeat(np.arange(n), np.diff(indptr))
     layouts = []
     for p, part in enumerate(partitions):
         owned = np.unique(np.asarray(part.nodes, dtype=np.int64))

@@ -77,12 +77,14 @@ class Partition:
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
                  system_ratio: int, damping=None, dist=None, graph=None):
+        from .distribute import whole
         self.spec = spec
-        self.dist = dist            # Distribution over the ranks of ``comm`` (None: one rank)
+        # the partition over the ranks of ``comm``; ``layout`` is this rank's piece
+        self.dist = dist if dist is not None else whole(layout, model.n_nodes)
         self.graph = graph          # node adjacency (indptr, indices): preallocation
         self.name = spec.name
         self.prefix = f"{spec.name}_"
-        self.layout = layout
+        self.layout = layout = self.dist.pieces[0] if dist is None else layout
         self.comm = comm
         self.dt = spec.ratio * base_dt
         self.n_sub = system_ratio // spec.ratio
@@ -94,8 +96,8 @@ class Partition:
         self.n_own = layout.n_owned * dof
         n = self.held_dofs.size
         # this rank's rows in the partition's distributed DOF numbering
-        self.first = getattr(layout, "start", 0) * dof
-        self.n_global = dist.n_held * dof if dist is not None else n
+        self.first = layout.start * dof
+        self.n_global = self.dist.n_held * dof
         self.state = np.zeros((3, n))
         self.U, self.V, self.A = self.state
         self.u, self.v, self.a = (vec_on(x, comm) for x in (self.U, self.V, self.A))
@@ -154,20 +156,13 @@ class Partition:
         """This rank's rows of a matrix over the partition's held DOFs from
         element block sets (global node ids; see :mod:`solver.assembly`)."""
         from .assembly import default_type, matrix
-        if self.dist is not None:
-            number, n_all, first = self.dist.number, self.dist.n_held, self.layout.start
-        else:
-            number = np.full(int(self.layout.held.max()) + 1, -1, dtype=np.int64)
-            number[self.layout.held] = np.arange(self.layout.n_held)
-            n_all, first = self.layout.n_held, 0
-        return matrix(lambda: block_sets, number, self.layout.n_held, n_all, first, self.dof,
-                      self.comm, self.prefix, scale=scale, diagonal=diagonal,
-                      mat_type=default_type(self.dof, solved),
-                      graph=self.graph if self.dist is not None else None)
+        return matrix(lambda: block_sets, self.dist.number, self.layout.n_held, self.dist.n_held,
+                      self.layout.start, self.dof, self.comm, self.prefix, scale=scale,
+                      diagonal=diagonal, mat_type=default_type(self.dof, solved), graph=self.graph)
 
     def whole_held(self):
         """Held nodes of the whole partition (all its pieces)."""
-        return self.dist.layout.held if self.dist is not None else self.layout.held
+        return self.dist.layout.held
 
     def _setup_loads(self, model, layout):
         """Group the held loaded DOFs by time function: one numpy update per group
@@ -193,7 +188,7 @@ class Partition:
     def describe(self) -> str:
         lay = self.layout
         ext = " + ".join(str(l.size) for l in lay.layers) or "0"
-        piece = f" piece {lay.piece + 1}/{lay.pieces}" if getattr(lay, "pieces", 1) > 1 else ""
+        piece = f" piece {lay.piece + 1}/{lay.pieces}" if lay.pieces > 1 else ""
         return (f"{self.name}{piece}: {self.method}, {self.integrator.describe()}; step {self.dt:.3e} s "
                 f"x {self.n_sub} per system step; nodes: {lay.n_owned} owned (boundary "
                 f"{_ids(lay.boundary)}, interior {lay.interior.size}), external {ext} in "

@@ -88,6 +88,12 @@ def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
     return Frequency(float(np.sqrt(radius)), "Gershgorin bound")
 
 
+def assembled(scene, part):
+    """(Frequency, critical step, problem) of a built partition from its operator."""
+    fr = gershgorin(part.Kneg, part.mass, part.fixed_dofs)
+    return (fr, *verdict(scene, part.spec, fr))
+
+
 def _max():
     from mpi4py import MPI
     return MPI.MAX

@@ -93,7 +93,7 @@ def restore(data: dict, parts, scheme, guard):
         p.steps = int(saved["steps"])
         # the work of a partition on several ranks is summed over its pieces:
         # keep it on the first one
-        p.work = float(saved["work"]) if getattr(p.layout, "piece", 0) == 0 else 0.0
+        p.work = float(saved["work"]) if p.layout.piece == 0 else 0.0
         p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
                                        saved["load_values"].tolist())))
     for exchange in scheme.exchanges:
