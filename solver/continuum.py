@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import model_data
 from .assembly import group_matrices, nodal
 from .loads import load_function
 from .model import PointLoad
@@ -167,7 +168,7 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     particle_mass = np.zeros(len(pts))
     particle_mass[site_of] = lat.mass
     dem_nodes = [np.asarray(nodes, dtype=np.int64) for part, nodes in
-                 zip(scene.partitions, scene.owned_nodes()) if part.method == "dem"]
+                 ((p, p.nodes) for p in scene.partitions) if part.method == "dem"]
     is_dem = np.zeros(len(pts), bool)
     if dem_nodes:
         is_dem[np.concatenate(dem_nodes)] = True
@@ -205,7 +206,7 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
 def build(scene, reach: int = 1) -> ContinuumArrays:
     """The continuum model; ``reach``: external layers of dem partitions (lattice extent)."""
     spec = scene.model
-    mesh = spec.mesh_data
+    mesh = model_data.read(spec)
     dim = mesh.dim
     mat = spec.material.elastic()
     cells, mass = [], np.zeros(len(mesh.points))

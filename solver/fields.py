@@ -53,7 +53,7 @@ class FieldWriter:
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
                                     dNdx.shape[1]))
         dem = [p for p in scene.partitions if p.method == "dem"]
-        owned = scene.owned_nodes()
+        owned = [p.nodes for p in scene.partitions]
         self.particles = np.array(sorted(n for p, nodes in zip(scene.partitions, owned)
                                          if p.method == "dem" for n in nodes), dtype=np.int64)
         mesh_w = _open(self.files[0])

@@ -103,6 +103,15 @@ def from_file(path: str) -> Network:
             if missing:
                 raise ValueError(f"{path}: missing arrays {missing} (has {sorted(f.files)})")
             data = {n: f[n] for n in names}
+    for n in names:
+        a = np.asarray(data[n])
+        if a.ndim != 1 or a.dtype.kind not in "iuf":
+            raise ValueError(f"{path}: array {n} must be a 1-D array of numbers "
+                             f"(has shape {a.shape}, dtype {a.dtype})")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{path}: array {n} has non-finite values")
+        if n.startswith("spring_") and np.any(a != np.round(a)):
+            raise ValueError(f"{path}: array {n} holds node ids, not whole numbers")
     net = Network(np.asarray(data["mass"], dtype=float), np.asarray(data["spring_i"], dtype=np.int64),
                   np.asarray(data["spring_j"], dtype=np.int64),
                   np.asarray(data["stiffness"], dtype=float), {"nodes": (0, len(data["mass"]))})

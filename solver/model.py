@@ -137,7 +137,8 @@ def build(scene: Scene, layers=None):
 
 def build_network(scene: Scene) -> Model:
     """Arrays of the scene's network model."""
-    net = scene.model.network
+    from . import model_data
+    net = model_data.read(scene.model)
     n, dof = net.mass.size, 1
     u0, v0 = np.zeros(n), np.zeros(n)
     for node, value in scene.initial.displacement.items():

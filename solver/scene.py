@@ -4,15 +4,15 @@ Every key is declared here with its type, default and documentation
 (``python -m solver keys`` prints them; docs/scene.md lists them).  Nothing
 downstream reads raw dictionaries.  Cross-section checks (node ids in range,
 each node owned by exactly one partition, step ratios that divide the system
-step) run in :meth:`Scene.validate`, so a bad scene fails before any work.
+step) run in :meth:`Scene.validate`; the keys that refer to the mesh or the
+network are checked when the scene is bound to its model data
+(:func:`solver.binding.bind`, called by ``load``), before any work.
 """
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
 from typing import Literal
-
-import numpy as np
 
 from .schema import fail, key
 from .scene_model import (GROUND, ChainGenerator, ContinuumModel, LatticeSpec, Material,  # noqa: F401
@@ -238,59 +238,22 @@ class Scene:
     def output_file(self) -> str:
         return self.output.file if self.output else f"results/{self.name}.h5"
 
-    def owned_nodes(self) -> list[tuple[int, ...]]:
-        """Node ids of every partition (mesh groups resolved; a node in two
-        groups stays with the earlier partition)."""
-        out, taken = [], set()
-        for part in self.partitions:
-            if part.group is None:
-                out.append(part.nodes)
-                continue
-            nodes = self.model.mesh_data.group(part.group).nodes.tolist()
-            mine = tuple(n for n in nodes if n not in taken)
-            taken.update(mine)
-            out.append(mine)
-        return out
-
-    def probe_node(self, probe) -> int:
-        if probe.node is not None:
-            return probe.node
-        pts = self.model.mesh_data.points
-        return int(np.argmin(np.linalg.norm(pts - np.asarray(probe.at)[:pts.shape[1]], axis=1)))
-
-    @property
-    def dof(self) -> int:
-        return self.model.dim if self.model.kind == "continuum" else 1
-
     def validate(self, path):
-        n = self.model.n_nodes
+        """Checks of the configuration alone; keys that refer to the mesh or the
+        network are checked when the scene is bound (:mod:`solver.binding`)."""
         continuum = self.model.kind == "continuum"
         if not self.partitions:
             fail("partitions", "at least one partition is needed")
+        names = set()
         for p, part in enumerate(self.partitions):
             if continuum and part.method == "dem" and self.model.lattice is None:
                 fail(f"partitions[{p}].method", "a dem partition on a continuum model needs "
                      "model.lattice")
             if part.group is not None and not continuum:
                 fail(f"partitions[{p}].group", "groups name mesh regions: continuum models only")
-            if part.group is not None:
-                self.model.mesh_data.group(part.group, f"partitions[{p}].group")
-        owner: dict[int, str] = {}
-        names = set()
-        for p, (part, nodes) in enumerate(zip(self.partitions, self.owned_nodes())):
             if part.name in names:
                 fail(f"partitions[{p}].name", f"duplicate partition name {part.name!r}")
             names.add(part.name)
-            for node in nodes:
-                if node >= n:
-                    fail(f"partitions[{p}].nodes", f"node {node} out of range (model has {n} nodes)")
-                if node in owner:
-                    fail(f"partitions[{p}].nodes",
-                         f"node {node} is owned by partitions '{owner[node]}' and '{part.name}'")
-                owner[node] = part.name
-        orphans = sorted(set(range(n)) - set(owner))
-        if orphans:
-            fail("partitions", f"nodes {orphans[:10]} are owned by no partition")
         if self.coupling.scheme in ("staggered", "gc"):
             self._check_staggered()
         big = self.system_ratio
@@ -300,24 +263,14 @@ class Scene:
         if self.n_system_steps < 1:
             fail("time.end", f"{self.time.end} is shorter than one system step ({self.system_dt})")
         for i, ld in enumerate(self.loads):
-            if ld.group is not None:
-                if not continuum:
-                    fail(f"loads[{i}].group", "tractions on groups need a continuum model")
-                self.model.mesh_data.group(ld.group, f"loads[{i}].group")
-                if ld.direction is not None and len(ld.direction) != self.dof:
-                    fail(f"loads[{i}].direction", f"needs {self.dof} components")
-            else:
-                self._check_dof(f"loads[{i}]", ld.node, ld.component)
-        for kind in ("displacement", "velocity"):
-            for node in getattr(self.initial, kind):
-                self._check_dof(f"initial.{kind}.{node}", node, 0)
+            if ld.group is not None and not continuum:
+                fail(f"loads[{i}].group", "tractions on groups need a continuum model")
         seen = set()
         for i, probe in enumerate(self.probes):
             if (probe.node is None) == (probe.at is None):
                 fail(f"probes[{i}].node", "give either node or at")
             if probe.at is not None and not continuum:
                 fail(f"probes[{i}].at", "coordinates need a continuum model")
-            self._check_dof(f"probes[{i}]", self.probe_node(probe), probe.component)
             if probe.name in seen:
                 fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
             seen.add(probe.name)
@@ -342,14 +295,6 @@ class Scene:
             if continuum and self.reference.integrator != "explicit":
                 fail("reference.integrator", "continuum references run the explicit fem integrator")
 
-    def resolved(self) -> "Scene":
-        """The same scene with mesh groups and probe coordinates turned into node ids."""
-        import dataclasses
-        parts = tuple(dataclasses.replace(p, nodes=nodes, group=None)
-                      for p, nodes in zip(self.partitions, self.owned_nodes()))
-        probes = tuple(dataclasses.replace(p, node=self.probe_node(p), at=None) for p in self.probes)
-        return dataclasses.replace(self, partitions=parts, probes=probes)
-
     def _check_staggered(self):
         parts, scheme = self.partitions, self.coupling.scheme
         implicit = [p for p in parts if p.integrator == "implicit"]
@@ -363,14 +308,6 @@ class Scene:
         if scheme == "gc" and (other.method, other.integrator) != ("fem", "explicit"):
             fail("coupling.scheme", f"gc: the fine partition '{other.name}' must be fem with "
                  "integrator explicit")
-
-    def _check_dof(self, path, node, component):
-        if node < 0 or node >= self.model.n_nodes:
-            fail(f"{path}.node" if "initial" not in path else path,
-                 f"node {node} out of range (model has {self.model.n_nodes} nodes)")
-        if component >= self.dof:
-            fail(f"{path}.component", f"component {component} out of range (nodes have "
-                 f"{self.dof} DOF)")
 
 
 # the scene file's reading and overrides live in solver/scene_file.py

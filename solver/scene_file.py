@@ -88,7 +88,10 @@ def load_raw(path: str | Path) -> dict:
 
 
 def from_dict(raw: dict) -> Scene:
-    return parse(Scene, raw).resolved()
+    """Parse and validate ``raw``, then bind it to its model data (mesh groups and
+    probe points resolved to node ids; see :mod:`solver.binding`)."""
+    from .binding import bind
+    return bind(parse(Scene, raw))
 
 
 def load(path: str | Path, overrides=()) -> Scene:

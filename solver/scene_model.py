@@ -6,14 +6,10 @@ Part of the scene schema (:mod:`solver.scene` re-exports every name).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
-from pathlib import Path
 from typing import Literal
 
-import numpy as np
 
 from . import generators
-from .errors import SceneError
 from .schema import convert, fail, key, tagged
 
 GROUND = -1  # node id of the fixed end of a spring
@@ -117,32 +113,6 @@ class NetworkModel:
         if len(given) != 1:
             fail(path, "give exactly one of masses + springs, generator, file "
                  f"({', '.join(given) or 'none'} given)")
-        if self.file is not None and not Path(self.file).is_file():
-            fail(f"{path}.file", f"{self.file}: file not found")
-        where = {"masses": (f"{path}.masses", f"{path}.springs"),
-                 "generator": (f"{path}.generator",) * 2,
-                 "file": (f"{path}.file {self.file}: mass", f"{path}.file {self.file}: spring")}
-        try:
-            self.network.validate(*where[given[0]])
-        except (ValueError, OSError, KeyError) as e:
-            fail("", str(e))
-
-    @cached_property
-    def network(self) -> generators.Network:
-        if self.generator is not None:
-            return self.generator.build()
-        if self.file is not None:
-            return generators.from_file(self.file)
-        return generators.Network(
-            mass=np.asarray(self.masses, dtype=float),
-            spring_i=np.array([sp.i for sp in self.springs], dtype=np.int64),
-            spring_j=np.array([sp.j for sp in self.springs], dtype=np.int64),
-            stiffness=np.array([sp.stiffness for sp in self.springs], dtype=float),
-            groups={"nodes": (0, len(self.masses))})
-
-    @property
-    def n_nodes(self) -> int:
-        return int(self.network.mass.size)
 
 
 @dataclass(frozen=True)
@@ -190,32 +160,6 @@ class ContinuumModel:
     def validate(self, path):
         if not self.mesh.endswith((".geo", ".msh")):
             fail(f"{path}.mesh", f"{self.mesh}: expected a .geo or .msh file")
-        try:
-            m = self.mesh_data
-        except SceneError as e:
-            fail(f"{path}.mesh", str(e))
-        m.group(self.body, f"{path}.body")
-        for name in self.fixed:
-            m.group(name, f"{path}.fixed")
-        if self.lattice is not None:
-            m.group(self.lattice.region, f"{path}.lattice.region")
-        wants = "solid" if m.dim == 3 else ("plane_stress", "plane_strain")
-        if (m.dim == 3) != (self.material.kind == "solid"):
-            fail(f"{path}.material.kind", f"{self.material.kind} does not fit a {m.dim}D mesh "
-                 f"(use {wants})")
-
-    @cached_property
-    def mesh_data(self):
-        from . import mesh
-        return mesh.read(self.mesh, comm=mesh.READER, parameters=self.mesh_parameters)
-
-    @property
-    def n_nodes(self) -> int:
-        return len(self.mesh_data.points)
-
-    @property
-    def dim(self) -> int:
-        return self.mesh_data.dim
 
 
 _model = tagged("kind", {"network": NetworkModel, "continuum": ContinuumModel})

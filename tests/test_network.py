@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from conftest import raw_scene, run_cli, write_scene
-from solver import generators
+from solver import generators, model_data
+from solver.errors import SceneError
 from solver.scene import from_dict
 
 
@@ -29,7 +30,7 @@ def test_chain_generator_ends():
 def test_network_from_file_runs_like_the_inline_one(suffix, tmp_path):
     raw = raw_scene("six_dof")
     raw["time"]["end"] = 2.0
-    net = from_dict(raw).model.network
+    net = model_data.read(from_dict(raw).model)
     path = tmp_path / f"net.{suffix}"
     arrays = dict(mass=net.mass, spring_i=net.spring_i, spring_j=net.spring_j, stiffness=net.stiffness)
     if suffix == "npz":
@@ -78,10 +79,33 @@ def test_bad_file_contents_name_the_file(tmp_path):
              stiffness=np.ones(2))
     raw = raw_scene("six_dof")
     raw["model"] = {"kind": "network", "file": str(path)}
-    raw["partitions"][1]["nodes"] = []
+    raw["partitions"][0]["nodes"] = [0, 1]
+    raw["partitions"][1]["nodes"] = [2]
     proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
     assert proc.returncode == 2
     assert str(path) in proc.stderr and "node 7 out of range" in proc.stderr
+
+
+@pytest.mark.parametrize("arrays, words", [
+    (dict(mass=np.array([1.0, np.nan, 1.0])), ["array mass", "non-finite"]),
+    (dict(mass=np.ones((3, 1))), ["array mass", "1-D", "(3, 1)"]),
+    (dict(spring_j=np.array([1.0, 2.5])), ["array spring_j", "whole numbers"]),
+    (dict(stiffness=np.array(["a", "b"])), ["array stiffness", "dtype"]),
+])
+def test_bad_file_arrays_name_key_file_and_array(tmp_path, arrays, words):
+    path = tmp_path / "net.npz"
+    base = dict(mass=np.ones(3), spring_i=np.array([0, 1]), spring_j=np.array([1, 2]),
+                stiffness=np.ones(2))
+    base.update(arrays)
+    np.savez(path, **base)
+    raw = raw_scene("six_dof")
+    raw["model"] = {"kind": "network", "file": str(path)}
+    raw["partitions"][0]["nodes"] = [0, 1]
+    raw["partitions"][1]["nodes"] = [2]
+    with pytest.raises(SceneError) as e:
+        from_dict(raw)
+    for w in ["model.file", str(path)] + words:
+        assert w in str(e.value)
 
 
 def test_node_ranges():

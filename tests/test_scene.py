@@ -94,3 +94,30 @@ def test_unwritable_output_is_refused_before_stepping(tmp_path):
     line, = proc.stderr.strip().splitlines()
     assert line.startswith("error: output.file: cannot write") and str(blocker) in line
     assert "[solver] t =" not in proc.stdout and "system steps" not in proc.stdout
+
+
+def test_parsing_builds_nothing_binding_reads_the_model(tmp_path, monkeypatch):
+    """The scene is configuration: parsing a continuum scene does not touch the
+    mesh; binding reads it once and resolves groups and probe points."""
+    from solver import mesh, model_data
+    from solver.errors import SceneError
+    from solver.schema import parse
+    from solver.scene import Scene, from_dict
+    monkeypatch.chdir(ROOT)
+    raw = raw_scene("wave_bar")
+    calls = []
+    real = mesh.read
+    monkeypatch.setattr(mesh, "read", lambda *a, **k: calls.append(a) or real(*a, **k))
+    model_data._cache.clear()
+    scene = parse(Scene, raw)
+    assert calls == [] and any(p.group for p in scene.partitions)
+    bound = from_dict(raw)
+    assert len(calls) == 1
+    assert all(p.group is None and p.nodes for p in bound.partitions)
+    n = model_data.n_nodes(model_data.read(bound.model))
+    assert sorted(sum((list(p.nodes) for p in bound.partitions), [])) == list(range(n))
+    assert all(p.at is None and 0 <= p.node < n for p in bound.probes)
+    raw["model"]["mesh"] = str(tmp_path / "absent.msh")
+    parse(Scene, raw)                                   # still only configuration
+    with pytest.raises(SceneError, match="model.mesh: .*absent.msh: mesh file not found"):
+        from_dict(raw)
