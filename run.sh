@@ -103,11 +103,11 @@ case "${1:-}" in
     ;;
   sweep)
     shift
-    exec "$PY" -m solver.sweep "${nproc_arg[@]}" "$@"
+    exec "$PY" -m solver.tools.sweep "${nproc_arg[@]}" "$@"
     ;;
   plot)
     shift
-    exec "$PY" -m solver.plot "$@"
+    exec "$PY" -m solver.tools.plot "$@"
     ;;
   bench)
     shift

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.lattice import bond_triplets, simple_cubic
+from solver.model.lattice import bond_triplets, simple_cubic
 from solver.petscutil import aij, init, vec_on
 
 LAMMPS_INPUT = """units lj

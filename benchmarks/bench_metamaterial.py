@@ -25,7 +25,7 @@ import h5py
 
 from solver import scene as scene_mod
 from solver.petscutil import init
-from solver.sweep import mpiexec
+from solver.tools.sweep import mpiexec
 
 ROOT = Path(__file__).resolve().parents[1]
 SEED_000_TABLE_1 = {1: 171, 2: 150, 3: 140, 4: 134, 5: 130, 10: 125, 20: 112}
@@ -34,7 +34,7 @@ SEED_000_TABLE_1 = {1: 171, 2: 150, 3: 140, 4: 134, 5: 130, 10: 125, 20: 112}
 def serial(scene_path, eta, out):
     from mpi4py import MPI
 
-    from solver.runner import run
+    from solver.driver.runner import run
     scene = scene_mod.load(scene_path, [f"partitions.fem.ratio={eta}", "reference=none",
                                         f"output.file={out}", "output.progress=0"])
     res = run(scene, MPI.COMM_SELF, log=lambda *a: None)

@@ -33,7 +33,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from solver.sweep import run_one  # noqa: E402
+from solver.tools.sweep import run_one  # noqa: E402
 
 SCENE = str(ROOT / "configs" / "bar3d.yaml")
 LATENCY, BANDWIDTH = 2e-6, 10e9          # the cluster network assumed: 2 us, 10 GB/s per link
@@ -64,9 +64,13 @@ def read_extra(path):
 def partition_table(a, counts):
     """Per N: owned DOF, ghost and external DOF, bytes and messages per rank per
     system step, load imbalance, from the solver's own assignment and split."""
-    from solver import distribute, model as model_mod, overlap, ranks, scene as scene_mod
-    from solver.partitioning import owned_nonzeros
-    from solver.schemes import scheme_class
+    from solver.partitions import distribute
+    from solver.model import arrays as model_mod
+    from solver.coupling import overlap
+    from solver.partitions import ranks
+    from solver import scene as scene_mod
+    from solver.partitions.partitioning import owned_nonzeros
+    from solver.coupling.schemes import scheme_class
     scene = scene_mod.load(SCENE, overrides(a, 10))
     mdl = model_mod.build(scene)
     nb = mdl.neighbours()

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from solver import model as model_mod
+from solver.model import arrays as model_mod
 from solver import scene as scene_mod
 from solver.petscutil import aij, init, vec_on
 
@@ -68,7 +68,7 @@ def main(argv=None):
     init([])
     from mpi4py import MPI
 
-    from solver.runner import run
+    from solver.driver.runner import run
     scene = scene_mod.load(ROOT / "configs/six_dof.yaml",
                            [f"partitions.fem.ratio={args.eta}", f"time.end={args.end}",
                             "output.file=results/bench_six_dof.h5", "output.progress=0"])

@@ -18,10 +18,10 @@ import time
 
 import numpy as np
 
-from solver.assembly import assemble, group_matrices, nodal
-from solver.elements import Elastic
-from solver.lattice import bond_triplets, square
-from solver.mesh import read
+from solver.partitions.assembly import assemble, group_matrices, nodal
+from solver.model.elements import Elastic
+from solver.model.lattice import bond_triplets, square
+from solver.model.mesh import read
 from solver.petscutil import aij, init, vec_on
 
 

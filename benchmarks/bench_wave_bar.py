@@ -58,7 +58,7 @@ def main(argv=None):
     init([])
     from mpi4py import MPI
 
-    from solver.runner import run
+    from solver.driver.runner import run
     a = args.spacing
     tmp = Path(tempfile.mkdtemp())
     base = [f"model.mesh_parameters.a={a}", f"model.lattice.spacing={a}", f"time.dt={a * 1e-4}",

@@ -2,8 +2,8 @@
 
 Pipeline: scene (YAML) -> model (arrays) -> overlap layouts -> partitions
 (fem, dem; PETSc) -> system steps with one exchange each -> HDF5 output.
-Entry points: ``python -m solver`` (:mod:`solver.cli`) and the Python API
-(:mod:`solver.api`): ``solver.load``, ``solver.scene_from_dict``, ``solver.run``.
+Entry points: ``python -m solver`` (:mod:`solver.tools.cli`) and the Python API
+(:mod:`solver.tools.api`): ``solver.load``, ``solver.scene_from_dict``, ``solver.run``.
 """
 
 import os as _os
@@ -16,18 +16,18 @@ __version__ = "0.2.0"
 
 
 def load(path, overrides=()):
-    """See :func:`solver.api.load`."""
-    from .api import load as _load
+    """See :func:`solver.tools.api.load`."""
+    from solver.tools.api import load as _load
     return _load(path, overrides)
 
 
 def scene_from_dict(raw):
-    """See :func:`solver.api.scene_from_dict`."""
-    from .api import scene_from_dict as _from_dict
+    """See :func:`solver.tools.api.scene_from_dict`."""
+    from solver.tools.api import scene_from_dict as _from_dict
     return _from_dict(raw)
 
 
 def run(scene, comm=None, petsc_options=(), log=None, restart=None):
-    """See :func:`solver.api.run`."""
-    from .api import run as _run
+    """See :func:`solver.tools.api.run`."""
+    from solver.tools.api import run as _run
     return _run(scene, comm, petsc_options, log, restart)

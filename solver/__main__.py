@@ -1,6 +1,6 @@
-"""``python -m solver``: see :mod:`solver.cli`."""
+"""``python -m solver``: see :mod:`solver.tools.cli`."""
 import sys
 
-from .cli import main
+from solver.tools.cli import main
 
 sys.exit(main())

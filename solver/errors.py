@@ -1,6 +1,6 @@
 """Error types the command line turns into one-line messages and exit codes.
 
-Library code raises these; only :mod:`solver.cli` decides how a process ends.
+Library code raises these; only :mod:`solver.tools.cli` decides how a process ends.
 """
 
 

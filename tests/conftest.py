@@ -47,7 +47,7 @@ def run_scene(raw: dict, tmp_path: Path, comm=None):
 
     from solver import scene as scene_mod
     from solver.petscutil import init
-    from solver.runner import run
+    from solver.driver.runner import run
     init([])
     raw = copy.deepcopy(raw)
     raw.setdefault("output", {})

@@ -193,7 +193,7 @@ def test_interface_forces_are_action_and_reaction(dim, tmp_path):
     from mpi4py import MPI
 
     from solver import scene as scene_mod
-    from solver.build import build
+    from solver.driver.build import build
     raw = coupled_bar() if dim == 2 else bar3d(True, tmp_path)
     raw["output"] = {"file": str(tmp_path / "o.h5")}
     scene = scene_mod.from_dict(raw)

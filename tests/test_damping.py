@@ -47,7 +47,8 @@ def test_damping_lowers_the_explicit_critical_step(tmp_path):
     proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
     assert proc.returncode == 2
     crit = float(proc.stderr.split("critical step ")[1].split(" s")[0])
-    from solver import model, reference
+    from solver.model import arrays as model
+    from solver.driver import reference
     from solver.scene import from_dict
     w = reference.modes(model.build(from_dict(raw)))[0].max()       # omega_max of the chain
     xi = 0.5 * (0.05 / w + 0.5 * w)

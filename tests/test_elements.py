@@ -3,7 +3,7 @@ reproduced exactly, masses add up, inverted elements are refused."""
 import numpy as np
 import pytest
 
-from solver.elements import FAMILIES, BadElement, Elastic, HEX_NODES, QUAD_NODES, lumped_mass, \
+from solver.model.elements import FAMILIES, BadElement, Elastic, HEX_NODES, QUAD_NODES, lumped_mass, \
     stiffness, volumes
 
 REFERENCE = {"tri3": np.array([[0, 0], [1, 0], [0, 1]], float), "quad4": (QUAD_NODES + 1) / 2,

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from solver.lattice import bond_triplets, calibrate, square
+from solver.model.lattice import bond_triplets, calibrate, square
 
 
 @pytest.mark.parametrize("kind,nu", [("plane_stress", 0.33), ("plane_strain", 0.25)])
@@ -44,7 +44,7 @@ def test_poisson_ratio_outside_the_lattice_range_is_refused():
 
 
 def test_uniaxial_cubic_lattice_recovers_E_and_nu():
-    from solver.lattice import cubic
+    from solver.model.lattice import cubic
     E, rho, a = 70e9, 2700.0, 1e-4
     lat = cubic((0, 0, 0), (13, 7, 7), a, E, 0.25, rho)
     n = len(lat.points)

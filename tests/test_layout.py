@@ -1,7 +1,8 @@
 """Boundary, interior and external sets are derived from the connectivity."""
 import numpy as np
 
-from solver import model, overlap
+from solver.model import arrays as model
+from solver.coupling import overlap
 from solver.scene import load
 
 

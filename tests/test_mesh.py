@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from solver.assembly import assemble, group_matrices, nodal
-from solver.elements import Elastic
+from solver.partitions.assembly import assemble, group_matrices, nodal
+from solver.model.elements import Elastic
 from solver.errors import SceneError
-from solver.mesh import read
+from solver.model.mesh import read
 from solver.petscutil import init
 
 AL = {2: Elastic(70e9, 0.33, 2700, "plane_stress", 3.2e-4), 3: Elastic(70e9, 0.33, 2700)}

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from conftest import raw_scene, run_cli, run_scene, write_scene
-from solver import model as model_mod
-from solver import monolithic, reference
+from solver.model import arrays as model_mod
+from solver.driver import monolithic
+from solver.driver import reference
 from solver.scene import from_dict
 
 # acceptance limits of the issue (relative L2 error of the probe history)

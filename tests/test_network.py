@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from conftest import raw_scene, run_cli, write_scene
-from solver import generators, model_data
+from solver.model import generators
+from solver.model import data as model_data
 from solver.errors import SceneError
 from solver.scene import from_dict
 

@@ -65,10 +65,10 @@ def test_plot_command_on_completed_and_failed_runs(tmp_path):
     raw["output"] = {"file": str(tmp_path / "bad.h5")}
     assert run_cli([write_scene(tmp_path / "bad.yaml", raw)]).returncode == 3
     for name in ("ok", "bad"):
-        proc = subprocess.run([sys.executable, "-m", "solver.plot", str(tmp_path / f"{name}.h5")],
+        proc = subprocess.run([sys.executable, "-m", "solver.tools.plot", str(tmp_path / f"{name}.h5")],
                               cwd=ROOT, capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr
         assert (tmp_path / f"{name}.png").stat().st_size > 20000
-    proc = subprocess.run([sys.executable, "-m", "solver.plot", str(tmp_path / "none.h5")],
+    proc = subprocess.run([sys.executable, "-m", "solver.tools.plot", str(tmp_path / "none.h5")],
                           cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 2 and "none.h5" in proc.stderr

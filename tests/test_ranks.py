@@ -4,7 +4,7 @@ import re
 import pytest
 
 from solver.errors import LaunchError
-from solver.ranks import assign
+from solver.partitions.ranks import assign
 
 
 def test_one_rank_each_and_the_rest_by_cost():

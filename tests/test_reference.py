@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from solver import reference
-from solver.loads import HalfSine, Sine, Tabulated
-from solver.model import Model, PointLoad
+from solver.driver import reference
+from solver.model.loads import HalfSine, Sine, Tabulated
+from solver.model.arrays import Model, PointLoad
 
 CHAIN = dict(mass=np.array([1.0, 2.0, 3.0]), spring_i=np.array([-1, 0, 1]),
              spring_j=np.array([0, 1, 2]), spring_k=np.array([1.0, 2.0, 3.0]))

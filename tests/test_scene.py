@@ -75,7 +75,7 @@ def test_yaml12_floats_and_overrides():
 
 def test_every_key_is_documented():
     from solver.scene import Scene
-    from solver.schema import describe
+    from solver.scene.schema import describe
     rows = describe(Scene)
     names = {r[0] for r in rows}
     assert {"time.dt", "partitions[].ratio", "coupling.external", "guard.energy_bound",
@@ -99,9 +99,10 @@ def test_unwritable_output_is_refused_before_stepping(tmp_path):
 def test_parsing_builds_nothing_binding_reads_the_model(tmp_path, monkeypatch):
     """The scene is configuration: parsing a continuum scene does not touch the
     mesh; binding reads it once and resolves groups and probe points."""
-    from solver import mesh, model_data
+    from solver.model import mesh
+    from solver.model import data as model_data
     from solver.errors import SceneError
-    from solver.schema import parse
+    from solver.scene.schema import parse
     from solver.scene import Scene, from_dict
     monkeypatch.chdir(ROOT)
     raw = raw_scene("wave_bar")

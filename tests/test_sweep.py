@@ -9,7 +9,7 @@ from conftest import ROOT
 
 
 def test_sweep_table(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "solver.sweep", "configs/six_dof.yaml",
+    proc = subprocess.run([sys.executable, "-m", "solver.tools.sweep", "configs/six_dof.yaml",
                            "--ratios", "1,4", "--treatments", "taylor,literal", "-n", "1,2",
                            "--set", "time.end=1.0", "--out", str(tmp_path)], cwd=ROOT,
                           capture_output=True, text=True, timeout=600)
@@ -33,7 +33,7 @@ def test_sweep_table(tmp_path):
 
 
 def test_sweep_over_base_steps_fits_the_order(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "solver.sweep", "configs/five_node.yaml",
+    proc = subprocess.run([sys.executable, "-m", "solver.tools.sweep", "configs/five_node.yaml",
                            "--dts", "0.002,0.006,0.01", "--schemes", "staggered,gc", "-n", "1,2",
                            "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
                           timeout=600)

@@ -9,7 +9,7 @@ import pytest
 from mpi4py import MPI
 
 from solver import scene as scene_mod
-from solver.build import build
+from solver.driver.build import build
 
 ETA = 10
 

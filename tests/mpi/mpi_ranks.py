@@ -103,7 +103,7 @@ def test_coupled_3d_lattice_split_over_ranks(shared_tmp):
 
 
 def test_mesh_is_read_on_one_rank_and_broadcast():
-    from solver.mesh import read
+    from solver.model.mesh import read
     mesh = read("meshes/bar2d.geo", WORLD)
     points = WORLD.allgather(mesh.points)
     assert points[0].shape == (164, 2) and all(np.array_equal(points[0], p) for p in points)

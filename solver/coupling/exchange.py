@@ -1,0 +1,91 @@
+"""The overlap exchange: external copies <- owners' (u, v, a).
+
+All owned states live in one global PETSc Vec laid out piece by piece (a
+piece is a partition's share on one rank, :mod:`solver.partitions.distribute`) as
+[u | v | a] blocks; every rank scatters the entries its receiving pieces
+hold as external into one local Vec with a single VecScatter, whatever the
+rank layout: on one rank a local gather, on several ranks each piece sends
+its boundary to the pieces that hold it as external.  The concurrent scheme
+refreshes every partition's externals at once; the staggered scheme uses one
+exchange per direction (``receivers``).  Ghosts *within* a partition are not
+exchanged here: the partition's parallel matrix refreshes them at every MatMult.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from solver.petscutil import init, vec_on
+
+
+class Exchange:
+    """Refresh the externals of the ``receivers`` (partition indices; default
+    all) from their owners; every piece sends its owned (u, v, a).
+
+    ``dists``: the Distribution of every partition; ``ranks``: the world ranks
+    of every partition (:class:`solver.partitions.ranks.Assignment`); ``parts``: this
+    rank's pieces in ascending partition order."""
+
+    def __init__(self, comm, dists, ranks, parts, dof, receivers=None):
+        P = init()
+        n_nodes = dists[0].number.size
+        # the global Vec: every rank's pieces in rank order, each [u | v | a] of its owned DOFs
+        g_base = np.full(n_nodes, -1, dtype=np.int64)     # owner piece's block start
+        g_stride = np.zeros(n_nodes, dtype=np.int64)      # its owned DOFs (one field)
+        g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's place in its owned list
+        at, local_size = 0, 0
+        for r in range(comm.size):
+            for p in ranks.partitions_on(r):
+                piece = dists[p].pieces[ranks.ranks[p].index(r)]
+                own = piece.owned
+                g_base[own] = at
+                g_stride[own] = own.size * dof
+                g_pos[own] = np.arange(own.size)
+                at += 3 * own.size * dof
+                if r == comm.rank:
+                    local_size += 3 * own.size * dof
+        self.G_arr = np.zeros(local_size)
+        self.G = vec_on(self.G_arr, comm, size=(local_size, at))
+        self._send, g_at = [], 0
+        for p in parts:
+            g_view = self.G_arr[g_at:g_at + 3 * p.n_own].reshape(3, p.n_own)
+            self._send.append((p.state[:, :p.n_own], g_view))
+            g_at += 3 * p.n_own
+        src, dst, blocks, x_at = [], [], [], 0
+        comp = np.arange(dof)
+        for p in parts:
+            if receivers is not None and p.layout.index not in receivers:
+                continue
+            ext = p.layout.external
+            n_ext = ext.size * dof
+            e_dof = (np.arange(ext.size)[:, None] * dof + comp).ravel()      # local external DOF
+            q_dof = (g_base[ext][:, None] + g_pos[ext][:, None] * dof + comp).ravel()
+            stride = np.repeat(g_stride[ext], dof)
+            for f in range(3):                                              # u, v, a blocks
+                src.append(q_dof + f * stride)
+                dst.append(x_at + f * n_ext + e_dof)
+            blocks.append((p, x_at, n_ext))
+            x_at += 3 * n_ext
+        self.X_arr = np.zeros(x_at)
+        self.X = vec_on(self.X_arr, P.COMM_SELF)
+        as_is = lambda idx: P.IS().createGeneral(  # noqa: E731
+            np.concatenate(idx).astype(P.IntType) if idx else np.zeros(0, P.IntType), comm=P.COMM_SELF)
+        self.is_from, self.is_to = as_is(src), as_is(dst)
+        self.scatter = P.Scatter().create(self.G, self.is_from, self.X, self.is_to)
+        for obj in (self.G, self.X, self.scatter):
+            obj.setOptionsPrefix("exchange_")
+        self.values = x_at
+        self._receive = [(self.X_arr[x0:x0 + 3 * n].reshape(3, n), p.state[:, p.n_own:])
+                         for p, x0, n in blocks]
+        self._insert = P.InsertMode.INSERT_VALUES
+        self._forward = P.ScatterMode.FORWARD
+
+    def __call__(self):
+        for owned, g_view in self._send:
+            np.copyto(g_view, owned)
+        self.scatter.scatter(self.G, self.X, self._insert, self._forward)
+        for x_view, external in self._receive:
+            np.copyto(external, x_view)
+
+    def destroy(self):
+        for obj in (self.scatter, self.is_from, self.is_to, self.G, self.X):
+            obj.destroy()

@@ -1,0 +1,26 @@
+"""One registry of coupling schemes (``coupling.scheme``), GC included.
+
+Every scheme class has the same protocol: ``treatments(scene)`` (the
+external-data treatment of every partition), ``build(scene, model, comm,
+say)`` (a scheme ready to step on this rank, with ``parts``, ``layouts``,
+``freqs`` and ``exchanges``), then ``initialise(model)``, ``step(t0)`` and
+``describe()``.
+"""
+from __future__ import annotations
+
+# What each coupling.scheme accepts (checked in Scene.validate and at launch).
+SUPPORT = {
+    "overlap": "any number of partitions, each fem+explicit, fem+implicit or dem+verlet; "
+               "any number of ranks; external: taylor, layers, literal",
+    "staggered": "exactly two partitions: fem+implicit with the largest ratio, and fem+explicit "
+                 "or dem+verlet; any number of ranks; external (of the explicit side): taylor, "
+                 "layers, literal",
+    "gc": "exactly two partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank",
+}
+
+
+def scheme_class(name: str):
+    from solver.coupling.system_step import ConcurrentOverlap, Staggered
+    from solver.coupling.gc import GravouilCombescure
+    return {"overlap": ConcurrentOverlap, "staggered": Staggered,
+            "gc": GravouilCombescure}[name]

@@ -1,0 +1,153 @@
+"""Coupling schemes: what one system step does.
+
+``ConcurrentOverlap`` (``coupling.scheme: overlap``, seed 000): every
+partition advances ``largest ratio / ratio`` steps from the same system-step
+state, then one exchange refreshes all external copies.  On as many ranks as
+partitions the advances run concurrently and meet at the exchange; on one rank
+they run one after the other with the same result.
+
+``Staggered`` (``coupling.scheme: staggered``, seed 002): one explicit and one
+implicit partition.  The implicit side predicts from t_n; the explicit side
+sub-cycles to t_n+1 over its external layers; its boundary (u, v, a) at t_n+1
+is sent to the implicit side, which solves
+K_eff[BI,BI] a_BI = f_BI - (K u~ + C v~)_BI - K_eff[BI,E] a_E with those
+accelerations prescribed; the implicit results are then copied to the
+explicit side's externals.  The two sides alternate, so on two ranks they do
+not overlap in time.
+"""
+from __future__ import annotations
+
+from time import perf_counter as _clock
+
+from solver.coupling.exchange import Exchange
+from solver.petscutil import Stage, init
+
+
+class _Clocks:
+    """Wall time of partitions and exchanges, and PETSc logging stages (one per
+    partition, one for the exchange) when PETSc logging is on (-log_view)."""
+
+    def __init__(self, parts, names=None):
+        # every rank registers every partition's stage in the same order (PETSc
+        # matches stages across ranks by registration order), then the exchange
+        self._stages = {n: Stage(n) for n in (names or [p.name for p in parts])}
+        self._stage_x = Stage("exchange")
+        self.exchange_wall = 0.0
+        self.logging = init().Log.isActive()
+        if not self.logging:
+            self.part, self.exchange = self._part, self._exchange
+
+    def part(self, part, fn, *args):
+        stage = self._stages[part.name]
+        stage.push()
+        self._part(part, fn, *args)
+        stage.pop()
+
+    def exchange(self, exchange):
+        self._stage_x.push()
+        self._exchange(exchange)
+        self._stage_x.pop()
+
+    def _part(self, part, fn, *args):
+        c0 = _clock()
+        fn(*args)
+        part.wall += _clock() - c0
+
+    def _exchange(self, exchange):
+        c0 = _clock()
+        exchange()
+        self.exchange_wall += _clock() - c0
+
+
+class ConcurrentOverlap:
+    name = "overlap"
+
+    @staticmethod
+    def treatments(scene) -> list[str]:
+        return [scene.coupling.external for _ in scene.partitions]
+
+    @classmethod
+    def build(cls, scene, model, comm, say):
+        """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme."""
+        from solver.partitions.partitioning import build_partitions
+        built = build_partitions(scene, model, comm, cls.treatments(scene), say)
+        scheme = cls(comm, built.dists, built.assignment, built.parts, model.dof, scene)
+        scheme.layouts, scheme.freqs = built.layouts, built.freqs
+        return scheme
+
+    def __init__(self, comm, dists, ranks, parts, dof, scene):
+        self.parts = parts
+        need = any(d.layout.layers for d in dists)
+        self.exchange = Exchange(comm, dists, ranks, parts, dof) if need else None
+        self.exchanges = [self.exchange] if need else []
+        self.clocks = _Clocks(parts, [p.name for p in scene.partitions])
+
+    def describe(self) -> str:
+        return "concurrent overlap scheme (seed 000): advance all partitions, then exchange"
+
+    def initialise(self, model):
+        """Initial state and accelerations; externals taken from their owners."""
+        for part in self.parts:
+            part.initialise(model)
+        for exchange in self.exchanges:
+            exchange()
+
+    def step(self, t0: float):
+        """One system step from time ``t0``."""
+        clocks = self.clocks
+        if clocks.logging:
+            for part in self.parts:
+                clocks.part(part, part.advance, t0)
+            if self.exchange:
+                clocks.exchange(self.exchange)
+            return
+        c0 = _clock()                           # the same without logging stages, inline
+        for part in self.parts:
+            part.advance(t0)
+            c1 = _clock()
+            part.wall += c1 - c0
+            c0 = c1
+        if self.exchange:
+            self.exchange()
+            clocks.exchange_wall += _clock() - c0
+
+
+class Staggered(ConcurrentOverlap):
+    name = "staggered"
+
+    @staticmethod
+    def treatments(scene) -> list[str]:
+        return ["prescribed" if p.integrator == "implicit" else scene.coupling.external
+                for p in scene.partitions]
+
+    def __init__(self, comm, dists, ranks, parts, dof, scene):
+        self.parts = parts
+        i = next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
+        local = {p.layout.index: p for p in parts}
+        self.implicit = local.get(i)
+        self.explicit = local.get(1 - i)
+        self.to_implicit = Exchange(comm, dists, ranks, parts, dof, receivers={i})
+        self.to_explicit = Exchange(comm, dists, ranks, parts, dof, receivers={1 - i})
+        self.exchanges = [self.to_implicit, self.to_explicit]
+        self.exchange = None
+        self.clocks = _Clocks(parts, [p.name for p in scene.partitions])
+
+    def describe(self) -> str:
+        return ("staggered scheme (seed 002): explicit sub-cycle, then the implicit solve with "
+                "the explicit side's accelerations prescribed")
+
+    def _solve_implicit(self, t1):
+        imp = self.implicit
+        imp.integrator.finish(imp, t1)
+        imp.after_step()
+
+    def step(self, t0: float):
+        imp, exp = self.implicit, self.explicit
+        if imp:
+            self.clocks.part(imp, imp.integrator.predict, imp)
+        if exp:
+            self.clocks.part(exp, exp.advance, t0)
+        self.clocks.exchange(self.to_implicit)
+        if imp:
+            self.clocks.part(imp, self._solve_implicit, t0 + imp.dt)
+        self.clocks.exchange(self.to_explicit)

@@ -1,0 +1,92 @@
+"""Fields for ParaView: XDMF time series written with meshio.
+
+``output.fields: {every: N}`` writes, every N system steps, the body mesh with
+point data displacement and velocity (3 components, z = 0 in 2D) and cell
+data stress (Voigt, from the element strain matrices averaged over the cell)
+to ``<output stem>_fields.xdmf``, and the DEM particles (nodes owned by dem partitions) as
+a vertex mesh with the same point data to ``<output stem>_particles.xdmf``.  Both
+share one time axis, so one ParaView session opens them together.  Values are
+gathered to rank 0, which writes.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+def _open(xdmf: str):
+    """A meshio TimeSeriesWriter whose .h5 sits beside ``xdmf`` (meshio opens it
+    relative to the working directory, so enter it from the file's directory)."""
+    import contextlib
+
+    from meshio.xdmf import TimeSeriesWriter
+    with contextlib.chdir(Path(xdmf).parent):
+        return TimeSeriesWriter(xdmf).__enter__()
+
+
+MESHIO_CELLS = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "hexahedron"}
+
+
+class FieldWriter:
+    def __init__(self, scene, mdl, parts, comm, tag: str = ""):
+        from solver.model.elements import _geometry, strain_matrix
+        self.comm = comm
+        self.parts = parts
+        self.every = scene.output.fields.every
+        self.dim = mdl.dof
+        self.n = mdl.n_nodes
+        self.writers = []
+        if comm.rank != 0:
+            return
+        base = Path(scene.output_file).resolve().with_suffix("")
+        base.parent.mkdir(parents=True, exist_ok=True)
+        # meshio puts the heavy data in <stem>.h5 beside each .xdmf: keep clear of ours
+        self.files = [f"{base}{tag}_fields.xdmf", f"{base}{tag}_particles.xdmf"]
+        points = np.zeros((self.n, 3))
+        points[:, :self.dim] = mdl.points
+        self.points = points
+        self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn, _ in mdl.cells]
+        self.stress_ops = []
+        D = scene.model.material.elastic().D()
+        for fam, conn, _ in mdl.cells:               # u_e -> cell-averaged stress
+            _, dNdx, _ = _geometry(fam, mdl.points[conn])
+            self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
+                                    dNdx.shape[1]))
+        dem = [p for p in scene.partitions if p.method == "dem"]
+        owned = [p.nodes for p in scene.partitions]
+        self.particles = np.array(sorted(n for p, nodes in zip(scene.partitions, owned)
+                                         if p.method == "dem" for n in nodes), dtype=np.int64)
+        mesh_w = _open(self.files[0])
+        mesh_w.write_points_cells(points, self.cells)
+        self.writers = [mesh_w]
+        if dem and self.particles.size:
+            part_w = _open(self.files[1])
+            part_w.write_points_cells(points[self.particles],
+                                      [("vertex", np.arange(self.particles.size)[:, None])])
+            self.writers.append(part_w)
+
+    def write(self, t: float):
+        local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dim),
+                  p.V[:p.n_own].reshape(-1, self.dim)) for p in self.parts]
+        chunks = self.comm.gather(local, root=0) if self.comm.size > 1 else [local]
+        if self.comm.rank != 0:
+            return
+        u, v = np.zeros((self.n, 3)), np.zeros((self.n, 3))
+        for chunk in chunks:
+            for nodes, uu, vv in chunk:
+                u[nodes, :self.dim] = uu
+                v[nodes, :self.dim] = vv
+        flat = u[:, :self.dim].ravel()
+        stress = [np.einsum("esj,ej->es", op, flat[(conn[:, :, None] * self.dim +
+                                                     np.arange(self.dim)).reshape(len(conn), -1)])
+                  for conn, op in self.stress_ops]
+        self.writers[0].write_data(t, point_data={"displacement": u, "velocity": v},
+                                   cell_data={"stress": stress})
+        if len(self.writers) > 1:
+            self.writers[1].write_data(t, point_data={"displacement": u[self.particles],
+                                                      "velocity": v[self.particles]})
+
+    def close(self):
+        for w in self.writers:
+            w.__exit__(None, None, None)
+        self.writers = []

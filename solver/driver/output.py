@@ -1,0 +1,76 @@
+"""HDF5 output, written atomically: a temporary name, renamed when complete.
+
+Layout::
+
+    /                  attrs: scene, status (running|completed|failed), message, ranks,
+                       wall_time, setup_wall_time, stepping_wall_time,
+                       exchange_wall_time, exchange_wall_time_per_rank,
+                       peak_rss_mb_per_rank, scheme,
+                       external_treatment, system_dt, base_dt, n_system_steps,
+                       t_end, reference, scene_yaml, steps_<partition>,
+                       wall_time_<partition>
+    /partitions/<name> attrs: method, integrator, ratio, dt, steps, wall_time,
+                       n_owned, n_external, layers, omega_max, critical_step
+    /probes/<name>/t, displacement, velocity [, reference_displacement]
+                       attrs: node, component, partition [, max_rel_error,
+                       rms_rel_error]
+    /energy/t, kinetic, strain, external_work, total
+    /checkpoint        (output.checkpoint, while running) the run state after
+                       system step attrs[step]: see :mod:`solver.driver.state`
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+
+def check_writable(path: str) -> str | None:
+    """Why ``path`` cannot be written (None if it can): checked before stepping,
+    so a long run does not die at the end on a bad output path."""
+    target = Path(path)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        probe = target.with_name(f".{target.name}.check-{os.getpid()}")
+        probe.touch()
+        probe.unlink()
+    except OSError as e:
+        return f"output.file: cannot write {path}: {e.strerror or e}"
+    if target.is_dir():
+        return f"output.file: {path} is a directory"
+    return None
+
+
+def write(path: str, result, checkpoint=None) -> None:
+    """Write ``result`` (and ``checkpoint`` = (state data, attrs) as /checkpoint)
+    to ``path`` atomically: readers see the old file or the new one, never a part."""
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
+    try:
+        with h5py.File(tmp, "w") as f:
+            for k, v in result.attrs.items():
+                f.attrs[k] = v
+            for name, attrs in result.partitions.items():
+                g = f.create_group(f"partitions/{name}")
+                for k, v in attrs.items():
+                    g.attrs[k] = v
+            for name, probe in result.probes.items():
+                g = f.create_group(f"probes/{name}")
+                for k in ("t", "displacement", "velocity", "reference_displacement"):
+                    if k in probe:
+                        g.create_dataset(k, data=np.asarray(probe[k]))
+                for k, v in probe.get("attrs", {}).items():
+                    g.attrs[k] = v
+            g = f.create_group("energy")
+            for k, v in result.energy.items():
+                g.create_dataset(k, data=np.asarray(v))
+            if checkpoint is not None:
+                from solver.driver.state import write_group
+                write_group(f, *checkpoint)
+        os.replace(tmp, target)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

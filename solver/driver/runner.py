@@ -1,0 +1,329 @@
+"""One run of a scene: build (:mod:`solver.driver.build`), step, watch, record, report.
+
+What a system step does is the coupling scheme's business
+(:mod:`solver.coupling.system_step`, :mod:`solver.coupling.gc`); which rank holds what is
+:mod:`solver.partitions.partitioning`'s; what is watched while stepping is
+:mod:`solver.driver.monitor`'s; checkpoints are :mod:`solver.driver.state`'s.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from solver.model import arrays as model_mod
+from solver.coupling import overlap
+from solver.driver import reference
+from solver.driver.build import build
+from solver.errors import RunFailed, SceneError, StabilityError
+from solver.driver.monitor import EnergyGuard, Probes
+from solver.partitions.partitioning import check_stability
+
+
+@dataclass
+class RunResult:
+    attrs: dict
+    partitions: dict = field(default_factory=dict)
+    probes: dict = field(default_factory=dict)
+    energy: dict = field(default_factory=dict)
+
+    @property
+    def status(self) -> str:
+        return self.attrs["status"]
+
+
+def _silent(*_):
+    pass
+
+
+def check_reference(scene):
+    """Refuse an unstable monolithic reference step before the coupled run starts."""
+    from solver.driver.monolithic import reference_scene
+    rscene = reference_scene(scene)
+    mdl = model_mod.build(rscene)
+    layouts = overlap.derive(mdl.neighbours(), rscene.partitions, [0])
+    _, problems = check_stability(rscene, mdl, layouts, [0])
+    if problems:
+        raise StabilityError(f"reference.dt: {problems[0]}")
+
+
+def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None = None) -> RunResult:
+    """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output.
+
+    ``restart``: an output file with a checkpoint of this scene; the run goes on
+    from there (on any rank count)."""
+    from mpi4py import MPI
+
+    from solver.driver import output
+    from solver.driver import state
+
+    t_start = time.perf_counter()
+    comm = comm or MPI.COMM_WORLD
+    rank = comm.rank
+    say = log if rank == 0 else _silent
+    problem = comm.bcast(output.check_writable(scene.output_file) if rank == 0 else None)
+    if problem:
+        raise SceneError(problem)
+    saved = state.read(restart, scene, comm) if restart else None
+    if getattr(scene.reference, "kind", "") == "monolithic":
+        check_reference(scene)
+    asm = build(scene, comm, say)
+    mdl, parts, scheme = asm.model, asm.parts, asm.scheme
+    n_sys, Dt = scene.n_system_steps, scene.system_dt
+
+    owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
+    probes = Probes(scene.probes, parts, owner, n_sys)
+    every = energy_every(scene)
+    guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound)
+    start = 0
+    if saved:
+        start = saved["step"]
+        state.restore(saved, parts, scheme, guard)
+        probes.restore(saved["probes"], start)
+        say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
+    report = Report(scene, asm, probes, guard, comm, scene_text, t_start)
+    report.setup_wall = time.perf_counter() - t_start
+    spec = scene.output.checkpoint if scene.output else None
+    checkpoint = Checkpoint(spec.every, scene, parts, guard, comm, report) if spec else None
+    if checkpoint:
+        checkpoint(start, 0.0)
+
+    fields = None
+    if scene.output and scene.output.fields:
+        from solver.driver.fields import FieldWriter
+        fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "")
+        fields.write(start * Dt)
+    try:
+        failure, done, loop_wall = step_loop(scene, scheme, probes, guard,
+                                             say if rank == 0 else None, fields, start, checkpoint)
+    finally:
+        if fields:
+            fields.close()
+
+    result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
+    if scene.reference != "none" and not failure and result.probes:
+        add_reference(result, mdl, scene, comm, say)
+    # a completed run keeps its final state (restart with a later time.end to go on);
+    # a failed one keeps its last good checkpoint
+    final = checkpoint.final(done, failure) if checkpoint else None
+    asm.destroy()
+    if rank == 0:
+        output.write(scene.output_file, result, checkpoint=final)
+    comm.barrier()
+    if failure:
+        raise RunFailed(f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
+    return result
+
+
+class Checkpoint:
+    """Writes the output file with the run state (:mod:`solver.driver.state`) every
+    ``every`` system steps, status running, atomically."""
+
+    def __init__(self, every, scene, parts, guard, comm, report):
+        from solver.driver.state import fingerprint
+        self.every, self.scene, self.parts, self.guard = every, scene, parts, guard
+        self.comm, self.report = comm, report
+        self.meta = {"fingerprint": fingerprint(scene), "scene": scene.name}
+
+    def __call__(self, k: int, wall: float):
+        from solver.driver import output
+        from solver.driver import state
+        data = state.collect(k, self.parts, self.guard, self.comm)
+        result = self.report.result(k, "running", "", wall)
+        if self.comm.rank == 0:
+            self.last = (data, self.meta)
+            output.write(self.scene.output_file, result, checkpoint=self.last)
+
+    def final(self, done: int, failure):
+        """What the final file keeps: the state at ``done`` (collective), or after
+        a failure the last checkpoint written (rank 0; None elsewhere)."""
+        from solver.driver.state import collect
+        if failure:
+            return getattr(self, "last", None)
+        data = collect(done, self.parts, self.guard, self.comm)
+        return (data, self.meta) if data is not None else None
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far [MB]."""
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def energy_every(scene) -> int:
+    """System steps between energy samples: output.energy_every, or at least 100
+    samples per run, at most one per 10 system steps once a run has 1000 of
+    them, and at most ~2000 samples (a sample costs a MatMult per partition)."""
+    if scene.output and scene.output.energy_every:
+        return scene.output.energy_every
+    n = scene.n_system_steps
+    return max(1, n // 2000, min(10, n // 100))
+
+
+class Report:
+    """The run's results so far (probes, energies, partition attributes),
+    gathered on every rank: for checkpoints and the final output."""
+
+    def __init__(self, scene, asm, probes, guard, comm, scene_text, t_start):
+        self.scene, self.asm, self.probes, self.guard = scene, asm, probes, guard
+        self.comm, self.scene_text, self.t_start = comm, scene_text, t_start
+
+    def result(self, done: int, status: str, message: str, loop_wall: float) -> RunResult:
+        scene, comm, parts = self.scene, self.comm, self.asm.parts
+        freqs = self.asm.freqs
+        n_sys, Dt = scene.n_system_steps, scene.system_dt
+        x_wall = self.asm.scheme.clocks.exchange_wall
+        local_parts = {part.name: {
+            "method": part.method, "integrator": part.integrator.describe(),
+            "ratio": part.spec.ratio, "dt": part.dt, "steps": part.steps, "wall_time": part.wall,
+            "n_owned": part.layout.n_owned, "n_external": int(part.layout.external.size),
+            "layers": len(part.layout.layers), "boundary": part.layout.boundary,
+            "omega_max": freqs[part.name][0].omega_max,
+            "critical_step": freqs[part.name][1],
+            "exchange_wall_time": x_wall} for part in parts}
+        t_axis = np.arange(n_sys + 1) * Dt
+        gathered, part_attrs = {}, {}
+        for pr, pa in comm.allgather((self.probes.histories(t_axis, done), local_parts)):
+            gathered.update(pr)
+            for name, attrs in pa.items():       # pieces of one partition on several ranks
+                if name in part_attrs:
+                    merged = part_attrs[name]
+                    merged["ranks"] += 1
+                    for key in ("n_owned", "n_external"):
+                        merged[key] += attrs[key]
+                    merged["boundary"] = np.sort(np.concatenate([merged["boundary"],
+                                                                 attrs["boundary"]]))
+                    for key in ("wall_time", "exchange_wall_time"):
+                        merged[key] = max(merged[key], attrs[key])
+                else:
+                    part_attrs[name] = {**attrs, "ranks": 1}
+        histories = {p.name: gathered[p.name] for p in scene.probes}
+        part_attrs = {p.name: part_attrs[p.name] for p in scene.partitions}
+        attrs = {"scene": scene.name, "status": status, "message": message, "ranks": comm.size,
+                 "wall_time": time.perf_counter() - self.t_start, "stepping_wall_time": loop_wall,
+                 "setup_wall_time": self.setup_wall,
+                 "peak_rss_mb_per_rank": np.array(comm.allgather(peak_rss_mb())),
+                 "exchange_wall_time": max(comm.allgather(x_wall)),
+                 "exchange_wall_time_per_rank": np.array(comm.allgather(x_wall)),
+                 "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
+                 "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
+                 "t_end": done * Dt, "reference": reference_label(scene),
+                 "scene_yaml": self.scene_text}
+        for name, pa in part_attrs.items():
+            attrs[f"steps_{name}"] = pa["steps"]
+            attrs[f"wall_time_{name}"] = pa["wall_time"]
+        return RunResult(attrs, part_attrs, histories, self.guard.arrays())
+
+
+def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoint=None):
+    """Advance system steps from ``start`` to the end or the first guard failure;
+    ``checkpoint(k, wall)`` every ``checkpoint.every`` system steps.
+
+    Returns (failure message or None, system steps done, stepping wall time)."""
+    n_sys, Dt = scene.n_system_steps, scene.system_dt
+    progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
+    every = guard.every
+    ck_every = checkpoint.every if checkpoint else 0
+    clock = time.perf_counter
+    t_loop = last = clock()
+    failure, k = None, start
+    for s in range(start, n_sys):
+        scheme.step(s * Dt)
+        k = s + 1
+        probes.record(k)
+        if fields and k % fields.every == 0:
+            fields.write(k * Dt)
+        if k % every == 0 or k == n_sys:
+            failure = guard.check(k)
+            if failure:
+                break
+        if ck_every and k % ck_every == 0 and k < n_sys:
+            checkpoint(k, clock() - t_loop)
+        if progress and (k & 255) == 0 and clock() - last >= progress:
+            last = clock()
+            frac, el = (k - start) / (n_sys - start), last - t_loop
+            say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
+                f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
+    return failure, k, clock() - t_loop
+
+
+def reference_label(scene) -> str:
+    ref = scene.reference
+    if isinstance(ref, str):
+        return ref
+    if ref.kind == "bar_wave":
+        return "1D bar wave (until the first reflection)"
+    return f"monolithic {ref.integrator}, dt {ref.dt:g} s"
+
+
+def relative_errors(x, ref):
+    """(max |x - ref| / max |ref|, ||x - ref||_2 / ||ref||_2)."""
+    err = np.asarray(x) - np.asarray(ref)
+    scale_max = np.max(np.abs(ref))
+    scale_rms = np.linalg.norm(ref)
+    return (float(np.max(np.abs(err)) / scale_max) if scale_max else float(np.max(np.abs(err))),
+            float(np.linalg.norm(err) / scale_rms) if scale_rms else float(np.linalg.norm(err)))
+
+
+def add_reference(result, mdl, scene, comm, say):
+    """Reference histories at the probe times (computed on rank 0) and the errors."""
+    from solver.driver import monolithic
+    refs = None
+    if comm.rank == 0:
+        t_axis = next(iter(result.probes.values()))["t"]
+        if scene.reference == "modal":
+            dofs = [p.node * mdl.dof + p.component for p in scene.probes]
+            u_ref, _ = reference.modal(mdl, dofs, t_axis, damping=scene.damping)
+            refs = {p.name: u_ref[:, i] for i, p in enumerate(scene.probes)}
+        elif getattr(scene.reference, "kind", "") == "bar_wave":
+            from solver.driver import barwave
+            refs = {}
+            for p in scene.probes:
+                u, _, valid = barwave.history(scene, t_axis, float(mdl.points[p.node][0]))
+                refs[p.name] = np.where(valid, u, np.nan)
+        else:
+            refs = monolithic.history(scene, t_axis, say)
+    refs = comm.bcast(refs)
+    for probe in scene.probes:
+        pr = result.probes[probe.name]
+        ref = refs[probe.name]
+        pr["reference_displacement"] = ref
+        ok = np.isfinite(ref)                 # bar_wave: only until the first reflection
+        mx, rms = relative_errors(pr["displacement"][ok], ref[ok])
+        pr["attrs"].update(max_rel_error=mx, rms_rel_error=rms)
+    if len(scene.probes) > 1 and scene.model.kind == "network":
+        result.attrs["vector_rel_error"] = vector_error(
+            np.array([result.probes[p.name]["displacement"] for p in scene.probes]),
+            np.array([refs[p.name] for p in scene.probes]))
+
+
+def vector_error(x, ref) -> float:
+    """Seed 002 eq. 9 with all probes as one vector u(t_i): the mean over the
+    samples of ||u(t_i) - u_ref(t_i)|| / ||u_ref(t_i)|| (samples where the
+    reference vanishes are skipped).  x, ref: [n_probes, n_samples]."""
+    norm = np.linalg.norm(ref, axis=0)
+    ok = norm > 1e-300
+    return float(np.mean(np.linalg.norm(x - ref, axis=0)[ok] / norm[ok]))
+
+
+def summary(result, output_file) -> list[str]:
+    a = result.attrs
+    parts = ", ".join(f"{n} {p['steps']} x {p['dt']:.3g} s ({p['wall_time']:.3g} s)"
+                      for n, p in result.partitions.items())
+    lines = [f"[solver] {a['scene']}: {a['status']}, {a['n_system_steps']} system steps to "
+             f"t = {a['t_end']:.6g} s on {a['ranks']} rank(s); wall {a['wall_time']:.3g} s "
+             f"(set-up {a['setup_wall_time']:.3g} s, stepping {a['stepping_wall_time']:.3g} s, "
+             f"exchange {a['exchange_wall_time']:.3g} s); peak memory per rank "
+             f"{a['peak_rss_mb_per_rank'].max():.0f} MB",
+             f"[solver]   partitions: {parts}"]
+    if "vector_rel_error" in a:
+        lines.append(f"[solver]   all probes as one vector (seed 002 eq. 9, mean over samples): "
+                     f"relative error {a['vector_rel_error']:.3e}")
+    for name, pr in result.probes.items():
+        at = pr["attrs"]
+        if "max_rel_error" in at:
+            lines.append(f"[solver]   probe {name}: max relative error {at['max_rel_error']:.3e}, "
+                         f"RMS relative error {at['rms_rel_error']:.3e} (reference: {a['reference']})")
+    lines.append(f"[solver]   output: {output_file}")
+    return lines

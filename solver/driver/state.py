@@ -1,0 +1,190 @@
+"""The state of a run between two system steps: exactly what a checkpoint holds.
+
+Between system steps a run is determined by
+
+* the owned (u, v, a) of every partition, keyed by global node id (so a run
+  can restart on another rank count: external copies are refreshed from their
+  owners by one exchange, which is what the last system step ended with);
+* per partition: steps done, external work and the last load values of every
+  load function (the work increment's f_n);
+* the energy guard: its samples so far, initial energy, largest |work|;
+* the probe histories so far and the number of system steps done.
+
+Newmark's predictors (u~, v~) are recomputed at every step and are not state.
+:func:`collect` gathers this to rank 0; :func:`restore` puts it back into a
+freshly built run.  A checkpoint is the output file itself (``/checkpoint``
+beside the histories), written atomically, so the file is valid at every
+instant; a completed file keeps its final state (a restart with a later
+time.end continues it) and a failed one its last good checkpoint.  :func:`fingerprint` identifies the scene a checkpoint belongs to:
+everything but ``time.end`` (a restart may run longer) and ``output``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+
+import numpy as np
+
+FORMAT = "mts-checkpoint 1"
+
+
+def _plain(obj):
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, np.ndarray):
+        return "sha256:" + hashlib.sha256(np.ascontiguousarray(obj).tobytes()).hexdigest()
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, float):
+        return repr(obj)
+    return obj if isinstance(obj, (int, str, bool, type(None))) else repr(obj)
+
+
+def fingerprint(scene) -> str:
+    """Hash of everything that determines the trajectory (not time.end, not output)."""
+    data = _plain(scene)
+    data.pop("output", None)
+    data["time"].pop("end", None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:32]
+
+
+def collect(k: int, parts, guard, comm) -> dict | None:
+    """This run's state after ``k`` system steps, merged on rank 0 (None elsewhere)."""
+    local = []
+    for p in parts:
+        n = p.n_own
+        local.append((p.name, p.layout.owned, p.state[:, :n].copy(), p.work, p.steps,
+                      p.load_memory()))
+    chunks = comm.gather(local, root=0) if comm.size > 1 else [local]
+    if comm.rank != 0:
+        return None
+    merged: dict = {}
+    for chunk in chunks:
+        for name, nodes, uva, work, steps, loads in chunk:
+            m = merged.setdefault(name, {"nodes": [], "uva": [], "work": 0.0, "steps": steps,
+                                         "loads": {}})
+            m["nodes"].append(nodes)
+            m["uva"].append(uva.reshape(3, nodes.size, -1))
+            m["work"] += work
+            m["loads"].update(loads)
+    parts_out = {}
+    for name, m in merged.items():
+        nodes = np.concatenate(m["nodes"])
+        order = np.argsort(nodes, kind="stable")
+        uva = np.concatenate(m["uva"], axis=1)[:, order]
+        keys = np.array(sorted(m["loads"]), dtype=np.int64)
+        parts_out[name] = {"nodes": nodes[order], "uva": uva, "work": m["work"],
+                           "steps": m["steps"], "load_keys": keys,
+                           "load_values": np.array([m["loads"][int(i)] for i in keys])}
+    return {"step": k, "parts": parts_out, "guard": guard.memory()}
+
+
+def restore(data: dict, parts, scheme, guard):
+    """Put checkpoint ``data`` (on every rank) into a freshly built run."""
+    for p in parts:
+        saved = data["parts"][p.name]
+        nodes, uva = saved["nodes"], saved["uva"]
+        pos = np.searchsorted(nodes, p.layout.owned)
+        n = p.n_own
+        p.state[:, :n] = uva[:, pos].reshape(3, n)
+        p.steps = int(saved["steps"])
+        # the work of a partition on several ranks is summed over its pieces:
+        # keep it on the first one
+        p.work = float(saved["work"]) if p.layout.piece == 0 else 0.0
+        p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
+                                       saved["load_values"].tolist())))
+    for exchange in scheme.exchanges:
+        exchange()
+    guard.restore(data["guard"])
+
+
+def write_group(f, data: dict, meta: dict):
+    """Write ``data`` (from :func:`collect`) as group /checkpoint of open h5py file ``f``."""
+    g = f.create_group("checkpoint")
+    g.attrs["format"] = FORMAT
+    g.attrs["step"] = data["step"]
+    for k, v in meta.items():
+        g.attrs[k] = v
+    for name, part in data["parts"].items():
+        pg = g.create_group(f"partitions/{name}")
+        for k in ("nodes", "uva", "load_keys", "load_values"):
+            pg.create_dataset(k, data=part[k])
+        pg.attrs["work"] = part["work"]
+        pg.attrs["steps"] = part["steps"]
+    gg = g.create_group("guard")
+    for k, v in data["guard"]["series"].items():
+        gg.create_dataset(k, data=np.asarray(v, dtype=float))
+    gg.attrs["initial"] = data["guard"]["initial"]
+    gg.attrs["max_work"] = data["guard"]["max_work"]
+
+
+def read(path: str, scene, comm) -> dict:
+    """Checkpoint data of ``path`` for ``scene`` (read on rank 0, broadcast).
+
+    Refuses (SceneError naming the file) a missing, non-HDF5, truncated or
+    foreign file, one without a checkpoint, or one written for another scene."""
+    from solver.errors import SceneError
+    data, error = None, None
+    if comm.rank == 0:
+        try:
+            data = _read(path, scene)
+        except SceneError as e:
+            error = str(e)
+    if comm.size > 1:
+        data, error = comm.bcast((data, error))
+    if error:
+        raise SceneError(error)
+    return data
+
+
+def _read(path: str, scene) -> dict:
+    from pathlib import Path
+
+    import h5py
+
+    from solver.errors import SceneError
+    where = f"--restart {path}"
+    if not Path(path).is_file():
+        raise SceneError(f"{where}: file not found")
+    try:
+        with h5py.File(path, "r") as f:
+            if "checkpoint" not in f:
+                raise SceneError(f"{where}: has no checkpoint (run with output.checkpoint.every)")
+            g = f["checkpoint"]
+            if g.attrs.get("format") != FORMAT:
+                raise SceneError(f"{where}: checkpoint format {g.attrs.get('format')!r}, this "
+                                 f"version reads {FORMAT!r}")
+            if g.attrs.get("fingerprint") != fingerprint(scene):
+                raise SceneError(f"{where}: written for scene {g.attrs.get('scene')!r} with other "
+                                 "model, partitions, steps or loads than this scene (only "
+                                 "time.end and output may change on restart)")
+            k = int(g.attrs["step"])
+            if k > scene.n_system_steps:
+                raise SceneError(f"{where}: checkpoint at system step {k} is beyond time.end "
+                                 f"({scene.n_system_steps} system steps)")
+            parts = {}
+            for name, pg in g["partitions"].items():
+                parts[name] = {k2: pg[k2][()] for k2 in ("nodes", "uva", "load_keys",
+                                                        "load_values")}
+                parts[name].update(work=float(pg.attrs["work"]), steps=int(pg.attrs["steps"]))
+            gg = g["guard"]
+            guard = {"series": {k2: gg[k2][()].tolist() for k2 in gg},
+                     "initial": float(gg.attrs["initial"]),
+                     "max_work": float(gg.attrs["max_work"])}
+            probes = {name: (f[f"probes/{name}/displacement"][()], f[f"probes/{name}/velocity"][()])
+                      for name in f.get("probes", {})}
+    except SceneError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as e:
+        raise SceneError(f"{where}: not a readable checkpoint ({str(e).splitlines()[0]})") from None
+    want = {p.name for p in scene.partitions}
+    if set(parts) != want:
+        raise SceneError(f"{where}: holds partitions {sorted(parts)}, the scene has {sorted(want)}")
+    for name, pr in probes.items():
+        if pr[0].size != k + 1 or pr[1].size != k + 1:
+            raise SceneError(f"{where}: probe {name!r} has {pr[0].size} samples, the checkpoint "
+                             f"is at system step {k}")
+    return {"step": k, "parts": parts, "guard": guard, "probes": probes}

@@ -1,0 +1,150 @@
+"""The structure as arrays: nodes with lumped masses, linear springs, loads.
+
+Pure numpy.  A node carries ``dof`` degrees of freedom (1 for networks;
+2 or 3 for continua and lattices later); DOF ``c`` of node ``n`` has index
+``n * dof + c`` in every vector.  Springs are stored as index arrays with
+``GROUND`` (-1) for a fixed end, so partitions can select theirs with numpy.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from solver.model.loads import LoadFunction, load_function
+from solver.scene import Scene
+
+
+@dataclass(frozen=True)
+class PointLoad:
+    """A time function times ``scale`` applied to one DOF."""
+
+    dof: int
+    function: LoadFunction
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class Model:
+    """Whole-structure data shared by all partitions.
+
+    mass: [n_nodes]; spring_i, spring_j: [n_springs] node ids (GROUND = -1);
+    spring_k: [n_springs]; u0, v0: [n_nodes * dof].
+    """
+
+    dof: int
+    mass: np.ndarray
+    spring_i: np.ndarray
+    spring_j: np.ndarray
+    spring_k: np.ndarray
+    loads: tuple[PointLoad, ...]
+    u0: np.ndarray
+    v0: np.ndarray
+
+    @property
+    def n_nodes(self) -> int:
+        return self.mass.size
+
+    @property
+    def fixed(self) -> np.ndarray:
+        """Fixed DOFs (networks fix through ground springs: none)."""
+        return np.zeros(self.n_dofs, bool)
+
+    @property
+    def n_dofs(self) -> int:
+        return self.n_nodes * self.dof
+
+    def neighbours(self) -> list[np.ndarray]:
+        """Adjacent nodes of every node (ground excluded)."""
+        free = (self.spring_i >= 0) & (self.spring_j >= 0)
+        a = np.concatenate([self.spring_i[free], self.spring_j[free]])
+        b = np.concatenate([self.spring_j[free], self.spring_i[free]])
+        order = np.argsort(a, kind="stable")
+        a, b = a[order], b[order]
+        cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
+        return [np.unique(b[cuts[n]:cuts[n + 1]]) for n in range(self.n_nodes)]
+
+    def springs_within(self, held: np.ndarray):
+        """Springs whose both ends are in ``held`` (ground counts as held), as
+        local indices (li, lj with -1 for ground) and stiffness."""
+        local = np.full(self.n_nodes + 1, -2, dtype=np.int64)   # slot -1 -> ground
+        local[held] = np.arange(held.size)
+        local[-1] = -1
+        li, lj = local[self.spring_i], local[self.spring_j]
+        keep = (li != -2) & (lj != -2)
+        return li[keep], lj[keep], self.spring_k[keep]
+
+    def stiffness_blocks(self, held: np.ndarray) -> list:
+        """Block sets (global node ids) of the springs whose ends are held:
+        [[k, -k], [-k, k]] between nodes, [[k]] to the ground."""
+        inh = np.zeros(self.n_nodes + 1, bool)          # slot -1: the ground is always held
+        inh[held] = True
+        inh[-1] = True
+        si, sj, k = self.spring_i, self.spring_j, self.spring_k
+        keep = inh[si] & inh[sj]
+        both = keep & (si >= 0) & (sj >= 0)
+        ground = keep & ((si < 0) != (sj < 0))
+        pair = np.array([[1.0, -1.0], [-1.0, 1.0]])
+        out = [(np.stack([si[both], sj[both]], axis=1), k[both][:, None, None] * pair)]
+        if ground.any():
+            end = np.where(si[ground] >= 0, si[ground], sj[ground])
+            out.append((end[:, None], k[ground][:, None, None] * np.ones((1, 1))))
+        return out
+
+    bond_blocks = stiffness_blocks          # a dem partition of a network applies the springs
+
+    def bond_triplets(self, held: np.ndarray):
+        """COO stiffness of the springs a dem partition holding ``held`` applies."""
+        return spring_triplets(*self.springs_within(held))
+
+    def stiffness_triplets(self, held: np.ndarray):
+        """COO (rows, cols, values) of the stiffness over the held nodes."""
+        li, lj, k = self.springs_within(held)
+        return spring_triplets(li, lj, k)
+
+    def full_stiffness(self) -> np.ndarray:
+        """Dense stiffness of the whole structure (for references and checks)."""
+        r, c, v = self.stiffness_triplets(np.arange(self.n_nodes))
+        K = np.zeros((self.n_dofs, self.n_dofs))
+        np.add.at(K, (r, c), v)
+        return K
+
+
+def spring_triplets(li, lj, k):
+    """COO entries of 1-DOF springs between local nodes ``li``, ``lj``; an end
+    of -1 is fixed, so only the other end's diagonal entry remains."""
+    both = (li >= 0) & (lj >= 0)
+    gi = (li >= 0) & (lj < 0)
+    gj = (lj >= 0) & (li < 0)
+    i2, j2, k2 = li[both], lj[both], k[both]
+    rows = np.concatenate([i2, j2, i2, j2, li[gi], lj[gj]])
+    cols = np.concatenate([i2, j2, j2, i2, li[gi], lj[gj]])
+    vals = np.concatenate([k2, k2, -k2, -k2, k[gi], k[gj]])
+    return rows.astype(np.int64), cols.astype(np.int64), vals
+
+
+def build(scene: Scene, layers=None):
+    """Arrays of the scene's model (network or continuum).  ``layers``: external
+    layers of every partition, as the coupling scheme's treatments give them
+    (a lattice reaches as far as its dem partitions' layers; default 1)."""
+    if scene.model.kind == "continuum":
+        from solver.model import continuum
+        reach = max([n for n, p in zip(layers or [], scene.partitions) if p.method == "dem"]
+                    or [1])
+        return continuum.build(scene, reach)
+    return build_network(scene)
+
+
+def build_network(scene: Scene) -> Model:
+    """Arrays of the scene's network model."""
+    from solver.model import data as model_data
+    net = model_data.read(scene.model)
+    n, dof = net.mass.size, 1
+    u0, v0 = np.zeros(n), np.zeros(n)
+    for node, value in scene.initial.displacement.items():
+        u0[node] = value
+    for node, value in scene.initial.velocity.items():
+        v0[node] = value
+    loads = tuple(PointLoad(l.node * dof + l.component, load_function(l)) for l in scene.loads)
+    return Model(dof=dof, mass=net.mass, spring_i=net.spring_i, spring_j=net.spring_j,
+                 spring_k=net.stiffness, loads=loads, u0=u0, v0=v0)

@@ -1,0 +1,105 @@
+"""The scene bound to its model data: the checks that need the mesh or the
+network, and the resolved scene the later stages run.
+
+:func:`bind` reads the model data once (:mod:`solver.model.data`), checks
+every key that refers to it (physical groups, node ids, components, load
+directions, the material against the mesh's dimension, each node owned by
+exactly one partition) and returns the scene with mesh groups and probe
+coordinates turned into node ids.  Errors are one line naming the key.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from solver.model import data as model_data
+from solver.scene.schema import fail
+
+
+def dof(scene, data) -> int:
+    """DOFs per node: the mesh's dimension for continua, 1 for networks."""
+    return data.dim if scene.model.kind == "continuum" else 1
+
+
+def bind(scene):
+    """``scene`` checked against its model data, groups and probe points resolved."""
+    data = model_data.read(scene.model)
+    continuum = scene.model.kind == "continuum"
+    if continuum:
+        _check_continuum(scene.model, data)
+    n, d = model_data.n_nodes(data), dof(scene, data)
+    owned = _owned_nodes(scene, data, n)
+    for i, ld in enumerate(scene.loads):
+        if ld.group is not None:
+            data.group(ld.group, f"loads[{i}].group")
+            if ld.direction is not None and len(ld.direction) != d:
+                fail(f"loads[{i}].direction", f"needs {d} components")
+        else:
+            _check_dof(f"loads[{i}]", ld.node, ld.component, n, d)
+    for kind in ("displacement", "velocity"):
+        for node in getattr(scene.initial, kind):
+            _check_dof(f"initial.{kind}.{node}", node, 0, n, d)
+    probes = []
+    for i, probe in enumerate(scene.probes):
+        node = probe.node if probe.node is not None else _nearest(data, probe.at)
+        _check_dof(f"probes[{i}]", node, probe.component, n, d)
+        probes.append(dataclasses.replace(probe, node=node, at=None))
+    parts = tuple(dataclasses.replace(p, nodes=nodes, group=None)
+                  for p, nodes in zip(scene.partitions, owned))
+    return dataclasses.replace(scene, partitions=parts, probes=tuple(probes))
+
+
+def _check_continuum(spec, mesh):
+    mesh.group(spec.body, "model.body")
+    for name in spec.fixed:
+        mesh.group(name, "model.fixed")
+    if spec.lattice is not None:
+        mesh.group(spec.lattice.region, "model.lattice.region")
+    if (mesh.dim == 3) != (spec.material.kind == "solid"):
+        wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain")
+        fail("model.material.kind", f"{spec.material.kind} does not fit a {mesh.dim}D mesh "
+             f"(use {wants})")
+
+
+def _owned_nodes(scene, data, n) -> list[tuple[int, ...]]:
+    """Node ids of every partition (a node in two groups stays with the earlier
+    partition); every node in range and owned exactly once."""
+    owner = np.full(n, -1, dtype=np.int64)
+    out = []
+    for p, part in enumerate(scene.partitions):
+        if part.group is not None:
+            nodes = data.group(part.group, f"partitions[{p}].group").nodes
+            nodes = np.asarray(nodes, dtype=np.int64)
+            nodes = nodes[owner[nodes] < 0]
+        else:
+            nodes = np.asarray(part.nodes, dtype=np.int64)
+            bad = nodes[nodes >= n]
+            if bad.size:
+                fail(f"partitions[{p}].nodes", f"node {int(bad[0])} out of range (model has {n} nodes)")
+            uniq, counts = np.unique(nodes, return_counts=True)
+            taken = uniq[(owner[uniq] >= 0) | (counts > 1)]
+            if taken.size:
+                node = int(taken[0])
+                first = scene.partitions[owner[node]].name if owner[node] >= 0 else part.name
+                fail(f"partitions[{p}].nodes",
+                     f"node {node} is owned by partitions '{first}' and '{part.name}'")
+        owner[nodes] = p
+        out.append(tuple(int(x) for x in nodes))
+    orphans = np.flatnonzero(owner < 0)
+    if orphans.size:
+        fail("partitions", f"nodes {orphans[:10].tolist()} are owned by no partition")
+    return out
+
+
+def _nearest(mesh, at) -> int:
+    pts = mesh.points
+    return int(np.argmin(np.linalg.norm(pts - np.asarray(at)[:pts.shape[1]], axis=1)))
+
+
+def _check_dof(path, node, component, n, d):
+    if node < 0 or node >= n:
+        fail(f"{path}.node" if "initial" not in path else path,
+             f"node {node} out of range (model has {n} nodes)")
+    if component >= d:
+        fail(f"{path}.component", f"component {component} out of range (nodes have {d} DOF)")

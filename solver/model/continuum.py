@@ -1,0 +1,237 @@
+"""Continuum model from a gmsh mesh: the same interface as the network Model.
+
+Nodes are mesh nodes with ``dim`` DOFs each (index ``node * dim + c``).  The
+stiffness of a set of held nodes is assembled from the body's cells whose
+nodes are all held; every node's lumped mass sums its cells' shares; nodes of
+``fixed`` groups have all DOFs fixed (their accelerations stay zero).
+Tractions on boundary groups become consistent nodal forces (a line load
+q [N/m] on a 2D edge, a pressure-like load [N/m^2] on a 3D face).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from solver.model import data as model_data
+from solver.partitions.assembly import group_matrices, nodal
+from solver.model.loads import load_function
+from solver.model.arrays import PointLoad
+
+
+@dataclass(frozen=True)
+class ContinuumArrays:
+    dof: int
+    points: np.ndarray
+    mass: np.ndarray             # [n_nodes] lumped
+    cells: list                  # (family, conn, CellStiffness) per cell family of the body
+    fixed: np.ndarray            # [n_nodes * dof] bool
+    loads: tuple
+    u0: np.ndarray
+    v0: np.ndarray
+    bonds: tuple = ()            # (i, j, k) lattice bonds on mesh nodes, for dem partitions
+    overlap_cells: list = ()     # (family, conn, Ke) of mesh cells both sides share
+
+    @property
+    def n_nodes(self) -> int:
+        return self.mass.size
+
+    @property
+    def n_dofs(self) -> int:
+        return self.n_nodes * self.dof
+
+    def _held(self, held):
+        inh = np.zeros(self.n_nodes, bool)
+        inh[held] = True
+        return inh
+
+    def _cell_blocks(self, cells, held) -> list:
+        inh = self._held(held)
+        out = []
+        for _, conn, Ke in cells:
+            keep = np.all(inh[conn], axis=1)
+            if keep.all():
+                out.append((conn, Ke))
+            else:
+                out.append((conn[keep], Ke.subset(keep) if hasattr(Ke, "subset") else Ke[keep]))
+        return out
+
+    def stiffness_blocks(self, held: np.ndarray) -> list:
+        """Block sets (global node ids) of the body cells whose nodes are all held."""
+        return self._cell_blocks(self.cells, held)
+
+    def bond_blocks(self, held: np.ndarray) -> list:
+        """Block sets of the lattice bonds whose ends are held (k n n^T [[1, -1],
+        [-1, 1]]) and of the overlap cells, which both sides share."""
+        out = []
+        if self.bonds:
+            bi, bj, k = self.bonds
+            inh = self._held(held)
+            keep = inh[bi] & inh[bj]
+            conn = np.stack([bi[keep], bj[keep]], axis=1)
+            out.append((conn, BondStiffness(self.points, conn, k[keep])))
+        return out + self._cell_blocks(self.overlap_cells, held)
+
+    def neighbours(self) -> list[np.ndarray]:
+        """Adjacent nodes of every node (through cells or bonds), sorted.  Edge
+        keys a * n + b are made and reduced in chunks of cells, so the
+        temporaries stay small on large meshes."""
+        n = np.int64(self.n_nodes)
+        keys = []
+        for _, conn, _ in self.cells:
+            k = conn.shape[1]
+            off = ~np.eye(k, dtype=bool)
+            for s in range(0, len(conn), 32768):
+                c = conn[s:s + 32768].astype(np.int64)
+                key = (c[:, :, None] * n + c[:, None, :])[:, off]
+                keys.append(np.unique(key))
+        if self.bonds:
+            bi, bj, _ = self.bonds
+            keys.append(np.concatenate([bi * n + bj, bj * n + bi]))
+        key = np.unique(np.concatenate(keys)) if keys else np.zeros(0, dtype=np.int64)
+        a, b = key // n, key % n
+        cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
+        return np.split(b, cuts[1:-1])
+
+
+class BondStiffness:
+    """Blocks k n n^T [[1, -1], [-1, 1]] of central bonds, computed when asked
+    (``blocks[idx]``), like :class:`solver.partitions.assembly.CellStiffness`."""
+
+    def __init__(self, points, conn, k):
+        self.points, self.conn, self.k = points, conn, k
+
+    def __len__(self) -> int:
+        return len(self.conn)
+
+    def __getitem__(self, idx) -> np.ndarray:
+        c, k = self.conn[idx], self.k[idx]
+        n = self.points[c[:, 1]] - self.points[c[:, 0]]
+        n = n / np.linalg.norm(n, axis=1)[:, None]
+        nn = k[:, None, None] * np.einsum("bi,bj->bij", n, n)
+        return np.block([[nn, -nn], [-nn, nn]])
+
+
+def facet_forces(mesh, group_name, where):
+    """Nodal weights w_a = integral of N_a over the group's facets: [n_nodes]."""
+    group = mesh.group(group_name, where)
+    w = np.zeros(len(mesh.points))
+    for fam, conn in group.cells.items():
+        X = mesh.points[conn]
+        if fam == "line2":
+            size = np.linalg.norm(X[:, 1] - X[:, 0], axis=1)
+        elif fam == "tri3":
+            size = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
+        elif fam == "quad4":
+            size = 0.5 * (np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 3] - X[:, 0]), axis=1) +
+                          np.linalg.norm(np.cross(X[:, 1] - X[:, 2], X[:, 3] - X[:, 2]), axis=1))
+        else:
+            continue
+        w += np.bincount(conn.ravel(), weights=np.repeat(size / conn.shape[1], conn.shape[1]),
+                         minlength=len(w))
+    return w
+
+
+def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
+    """Bonds, overlap cells and particle masses of the scene's lattice on the mesh
+    nodes that coincide with its sites: (bonds, overlap cells, mass with particle
+    masses for dem-owned nodes).  The lattice reaches ``reach`` spacings beyond
+    its region (the external layers of the dem partitions, which the coupling
+    stage decides), so that external particles carry their bonds."""
+    from solver.errors import SceneError
+    from solver.model.lattice import cubic, merge, square
+    spec, mat = scene.model.lattice, scene.model.material
+    region = mesh.group(spec.region, "model.lattice.region")
+    pts = mesh.points
+    a = spec.spacing
+    lo = pts[region.nodes].min(axis=0) - reach * a
+    hi = pts[region.nodes].max(axis=0) + reach * a
+    lo, hi = np.maximum(lo, pts.min(axis=0)), np.minimum(hi, pts.max(axis=0))
+    shape = np.rint((hi - lo) / a).astype(int) + 1
+    try:
+        lat = (square(lo, shape, a, mat.E, mat.nu, mat.rho, mat.thickness, mat.kind)
+               if mesh.dim == 2 else cubic(lo, shape, a, mat.E, mat.nu, mat.rho))
+    except ValueError as e:
+        raise SceneError(f"model.lattice: {e}") from None
+    # pair every lattice site with the mesh node at the same place
+    cell = np.rint((pts - lo) / a).astype(np.int64)
+    on_grid = np.all(np.abs(pts - (lo + cell * a)) <= 1e-3 * a, axis=1) & \
+        np.all((cell >= 0) & (cell < shape), axis=1)
+    site_of = np.full(int(np.prod(shape)), -1, dtype=np.int64)
+    site_of[np.ravel_multi_index(tuple(cell[on_grid].T), tuple(shape))] = np.flatnonzero(on_grid)
+    missing = np.flatnonzero(site_of < 0)
+    if missing.size:
+        where = ", ".join("(" + ", ".join(f"{c:.6g}" for c in p) + ")" for p in lat.points[missing[:5]])
+        raise SceneError(f"model.lattice: {missing.size} lattice sites have no mesh node within "
+                         f"{1e-3 * a:.3g} m (the mesh must coincide with the lattice one spacing "
+                         f"around region {spec.region!r}): {where}{' ...' if missing.size > 5 else ''}")
+    particle_mass = np.zeros(len(pts))
+    particle_mass[site_of] = lat.mass
+    dem_nodes = [np.asarray(nodes, dtype=np.int64) for part, nodes in
+                 ((p, p.nodes) for p in scene.partitions) if part.method == "dem"]
+    is_dem = np.zeros(len(pts), bool)
+    if dem_nodes:
+        is_dem[np.concatenate(dem_nodes)] = True
+    # lattice cells with corners of both sides are overlap cells: both partitions
+    # use the mesh cell there; the bonds come from the other lattice cells
+    corners = site_of[lat.corners]
+    n_dem = is_dem[corners].sum(axis=1)
+    mixed = (n_dem > 0) & (n_dem < corners.shape[1])
+    ci, cj, ck, cell = lat.cell_bonds
+    keep = ~mixed[cell]
+    bi, bj, bk = merge(site_of[ci[keep]], site_of[cj[keep]], ck[keep], len(pts))
+    overlap = []
+    if mixed.any():
+        wanted = {tuple(sorted(c)): n for n, c in enumerate(corners[mixed].tolist())}
+        for fam, conn, Ke in cells:
+            hit = np.array([tuple(sorted(c)) in wanted for c in conn.tolist()])
+            if hit.any():
+                overlap.append((fam, conn[hit], Ke[hit]))
+        found = sum(len(c) for _, c, _ in overlap)
+        if found != mixed.sum():
+            raise SceneError(f"model.lattice: {mixed.sum() - found} overlap cells of the lattice "
+                             "have no mesh cell with the same corners")
+    mass = mass.copy()
+    if dem_nodes:
+        dem = np.concatenate(dem_nodes)
+        outside = dem[particle_mass[dem] == 0]
+        if outside.size:
+            raise SceneError(f"model.lattice: dem partition nodes {outside[:5].tolist()} are not "
+                             f"lattice sites of region {spec.region!r}")
+        # a particle carries the mass of the lattice cells it stands in
+        mass[dem] = particle_mass[dem]
+    return (bi, bj, bk), overlap, mass
+
+
+def build(scene, reach: int = 1) -> ContinuumArrays:
+    """The continuum model; ``reach``: external layers of dem partitions (lattice extent)."""
+    spec = scene.model
+    mesh = model_data.read(spec)
+    dim = mesh.dim
+    mat = spec.material.elastic()
+    cells, mass = [], np.zeros(len(mesh.points))
+    for fam, conn, Ke, me in group_matrices(mesh, spec.body, mat, "model.body"):
+        cells.append((fam, conn, Ke))
+        mass += nodal(me, conn, len(mesh.points))
+    fixed = np.zeros(len(mesh.points) * dim, bool)
+    for name in spec.fixed:
+        nodes = mesh.group(name, "model.fixed").nodes
+        fixed[(nodes[:, None] * dim + np.arange(dim)).ravel()] = True
+    loads = []
+    for i, load in enumerate(scene.loads):
+        g = load_function(load)
+        direction = np.asarray(load.direction or [1.0] + [0.0] * (dim - 1), dtype=float)
+        if load.group is not None:
+            w = facet_forces(mesh, load.group, f"loads[{i}].group")
+            for node in np.flatnonzero(w):
+                for c in range(dim):
+                    if direction[c]:
+                        loads.append(PointLoad(int(node) * dim + c, g, float(w[node] * direction[c])))
+        else:
+            loads.append(PointLoad(load.node * dim + load.component, g))
+    n = len(mesh.points) * dim
+    bonds, overlap = (), ()
+    if spec.lattice is not None:
+        bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells, reach)
+    return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
+                           np.zeros(n), bonds, overlap)

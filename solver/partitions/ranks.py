@@ -1,0 +1,141 @@
+"""Which MPI ranks serve which partition.
+
+A partition's cost per system step is estimated as the nonzeros of its owned
+rows (stiffness or bond operator) times its steps per system step.  With N
+ranks and P partitions:
+
+* ``partitions[].ranks`` given for every partition: they must add up to N;
+  given for some: the others share the remaining ranks by cost.
+* N >= P (default): every partition gets one rank, and the N - P others go
+  to the partitions by cost (largest remainder of N * cost share), never more
+  ranks than a partition has owned nodes.  Ranks are disjoint and contiguous.
+* N < P: every partition runs on one rank; partitions are placed on the
+  least-loaded rank, most expensive first, and share ranks.  Partitions on
+  one rank advance one after the other.
+
+Each partition with several ranks gets its own sub-communicator (its Mats,
+Vecs and KSP live there); a partition on one rank uses COMM_SELF.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from solver.errors import LaunchError
+
+
+@dataclass(frozen=True)
+class Assignment:
+    ranks: tuple[tuple[int, ...], ...]     # world ranks of every partition
+    costs: tuple[float, ...]               # estimated nonzeros x steps per system step
+    how: str                               # why, for the log
+
+    def partitions_on(self, rank: int) -> list[int]:
+        return [p for p, rs in enumerate(self.ranks) if rank in rs]
+
+    def lines(self, names) -> list[str]:
+        total = sum(self.costs) or 1.0
+        out = [f"[solver] ranks: {self.how}"]
+        for name, rs, c in zip(names, self.ranks, self.costs):
+            span = f"rank {rs[0]}" if len(rs) == 1 else f"ranks {rs[0]}-{rs[-1]}"
+            out.append(f"[solver]   {name}: {span} ({len(rs)}), cost {c:.3g} nonzeros x steps "
+                       f"per system step ({100 * c / total:.0f}%)")
+        return out
+
+
+def cost(owned_nonzeros: float, steps_per_system_step: int) -> float:
+    return float(owned_nonzeros) * steps_per_system_step
+
+
+def assign(size: int, costs, n_owned, requested) -> Assignment:
+    """Ranks of every partition for a world of ``size``.
+
+    costs: estimated cost per partition; n_owned: owned nodes per partition
+    (cap on its ranks); requested: ``partitions[].ranks`` (None = by cost)."""
+    P = len(costs)
+    costs = [float(c) for c in costs]
+    if size < 1:
+        raise LaunchError(f"a run needs at least 1 rank, not {size}")
+    given = {p: r for p, r in enumerate(requested) if r is not None}
+    for p, r in given.items():
+        if r > n_owned[p]:
+            raise LaunchError(f"partitions[{p}].ranks: {r} ranks for {n_owned[p]} owned nodes")
+    if given:
+        used = sum(given.values())
+        free = [p for p in range(P) if p not in given]
+        listed = ", ".join(f"partitions[{p}].ranks = {r}" for p, r in given.items())
+        if not free and used != size:
+            raise LaunchError(f"partitions[].ranks add up to {used} ({listed}) but {size} ranks "
+                              f"were launched; run with -n {used} or change them")
+        if used + len(free) > size:
+            raise LaunchError(f"partitions[].ranks ask for {used} ranks ({listed}) and "
+                              f"{len(free)} other partition(s) need one each, {used + len(free)} "
+                              f"in all, but {size} were launched; run with -n {used + len(free)} "
+                              "or lower them")
+        counts = dict(given)
+        counts.update(zip(free, _share(size - used, [costs[p] for p in free],
+                                       [n_owned[p] for p in free])))
+        how = (f"{size} rank(s); partitions[].ranks given for "
+               f"{', '.join(str(p) for p in given)}, the rest by cost")
+        return Assignment(_contiguous([counts[p] for p in range(P)]), tuple(costs), how)
+    if size >= P:
+        counts = _share(size, costs, n_owned)
+        idle = size - sum(counts)
+        how = (f"{size} rank(s) for {P} partition(s), shared by estimated cost"
+               + (f"; {idle} rank(s) idle (no partition has nodes to spare)" if idle else ""))
+        return Assignment(_contiguous(counts), tuple(costs), how)
+    load = np.zeros(size)
+    ranks = [None] * P
+    for p in sorted(range(P), key=lambda q: (-costs[q], q)):
+        r = int(np.argmin(load))
+        ranks[p] = (r,)
+        load[r] += costs[p]
+    how = (f"{size} rank(s) for {P} partitions: each partition on one rank, placed by "
+           f"estimated cost (rank loads {', '.join(f'{x:.3g}' for x in load)})")
+    return Assignment(tuple(ranks), tuple(costs), how)
+
+
+def _share(n: int, costs, caps) -> list[int]:
+    """n ranks over partitions: one each, the rest by cost (largest remainder),
+    each at most its cap."""
+    k = len(costs)
+    counts = [1] * k
+    extra = n - k
+    total = sum(costs)
+    if extra <= 0 or total <= 0:
+        return counts
+    want = np.array([n * c / total for c in costs])
+    while extra > 0:
+        room = [p for p in range(k) if counts[p] < caps[p]]
+        if not room:
+            break
+        # the partition furthest below its share takes the next rank
+        p = max(room, key=lambda q: (want[q] - counts[q], -q))
+        counts[p] += 1
+        extra -= 1
+    return counts
+
+
+def _contiguous(counts) -> tuple[tuple[int, ...], ...]:
+    out, at = [], 0
+    for c in counts:
+        out.append(tuple(range(at, at + c)))
+        at += c
+    return tuple(out)
+
+
+def communicators(world, assignment: Assignment):
+    """{partition index: communicator} for the partitions this rank serves.
+
+    One split of ``world`` serves all multi-rank partitions (their rank sets
+    are disjoint); single-rank partitions use COMM_SELF."""
+    from mpi4py import MPI
+    mine = assignment.partitions_on(world.rank)
+    multi = [p for p in mine if len(assignment.ranks[p]) > 1]
+    color = multi[0] if multi else MPI.UNDEFINED
+    sub = world.Split(color, world.rank)
+    out = {}
+    for p in mine:
+        out[p] = sub if p in multi else MPI.COMM_SELF
+    return out

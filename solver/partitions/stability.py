@@ -1,0 +1,132 @@
+"""Highest natural frequency of a partition and the explicit step guard.
+
+Explicit Newmark (any beta) and velocity Verlet are stable for
+``omega_max * dt < 2``.  For up to ``DENSE_LIMIT`` DOFs the frequency is the
+exact largest eigenvalue of M^-1/2 K M^-1/2 (dense symmetric solve), known
+before any PETSc object exists; beyond that it is the Gershgorin bound of the
+same matrix, taken from the partition's assembled operator (still before
+stepping), which is never below the true value, so the guard stays on the
+safe side.  The operator is the one
+the partition steps: its cells (fem) or its bonds and overlap cells (dem).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+DENSE_LIMIT = 3000
+
+
+@dataclass(frozen=True)
+class Frequency:
+    omega_max: float     # rad/s
+    method: str          # "exact" or "Gershgorin bound"
+
+    def critical_step(self, omega_h: float = 2.0) -> float:
+        """Largest stable step for an integrator whose limit is ``omega_h``."""
+        return omega_h / self.omega_max if self.omega_max > 0 else float("inf")
+
+
+def omega_max(block_sets, held, mass: np.ndarray, dof: int) -> Frequency:
+    """Largest omega of K x = omega^2 M x for the element ``block_sets`` (global
+    node ids) over ``held`` nodes and lumped ``mass`` per held DOF."""
+    from solver.partitions.assembly import triplets
+    n = mass.size
+    if n == 0 or not any(len(c) for c, _ in block_sets):
+        return Frequency(0.0, "exact")
+    if n <= DENSE_LIMIT:
+        local = np.full(int(held.max()) + 1, -1, dtype=np.int64)
+        local[held] = np.arange(held.size)
+        rows, cols, vals = triplets([(local[c], k) for c, k in block_sets], dof)
+        s = 1.0 / np.sqrt(mass)      # fixed DOFs carry infinite mass: their rows drop out
+        A = np.zeros((n, n))
+        np.add.at(A, (rows, cols), vals * s[rows] * s[cols])
+        lam = float(np.linalg.eigvalsh(A)[-1])
+        return Frequency(float(np.sqrt(max(lam, 0.0))), "exact")
+    return None                      # larger: from the assembled operator (gershgorin)
+
+
+ROWS_PER_CHUNK = 60000      # rows of the operator scaled at a time by gershgorin
+
+
+def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
+    """Gershgorin bound of M^-1/2 K M^-1/2 from a partition's assembled operator
+    (this rank's rows; collective): max_i sum_j |K_ij| s_i s_j with s = m^-1/2
+    and 0 on fixed DOFs, as PETSc's infinity norm of diagonally scaled row
+    chunks (MatCreateSubMatrix), so only a chunk is ever copied."""
+    from solver.petscutil import init
+    P = init()
+    comm = Kneg.getComm().tompi4py()
+    s = np.where(fixed, 0.0, 1.0 / np.sqrt(mass))
+    bs = Kneg.getBlockSize()
+    lo, hi = Kneg.getOwnershipRange()
+    step = max(bs, ROWS_PER_CHUNK // bs * bs)
+    n_chunks = comm.allreduce(-(-(hi - lo) // step), op=_max())
+    right = Kneg.createVecRight()
+    right.setArray(s)
+    cols = P.IS().createStride(hi - lo, lo, 1, comm=Kneg.getComm())
+    cols.setBlockSize(bs)
+    radius = 0.0
+    for c in range(n_chunks):
+        a, b = min(lo + c * step, hi), min(lo + (c + 1) * step, hi)
+        rows = P.IS().createStride(b - a, a, 1, comm=Kneg.getComm())
+        rows.setBlockSize(bs)
+        B = Kneg.createSubMatrix(rows, cols)
+        left = B.createVecLeft()
+        left.setArray(s[a - lo:b - lo])
+        try:
+            B.diagonalScale(left, right)
+        except P.Error:              # a type without diagonal scaling (e.g. dense, SELL)
+            B.convert("aij")
+            B.diagonalScale(left, right)
+        radius = max(radius, B.norm(P.NormType.NORM_INFINITY))
+        for obj in (B, left, rows):
+            obj.destroy()
+    for obj in (right, cols):
+        obj.destroy()
+    return Frequency(float(np.sqrt(radius)), "Gershgorin bound")
+
+
+def assembled(scene, part):
+    """(Frequency, critical step, problem) of a built partition from its operator."""
+    fr = gershgorin(part.Kneg, part.mass, part.fixed_dofs)
+    return (fr, *verdict(scene, part.spec, fr))
+
+
+def _max():
+    from mpi4py import MPI
+    return MPI.MAX
+
+
+def check(scene, spec, model, held):
+    """Stability of partition ``spec`` holding ``held`` nodes of ``model``:
+    (Frequency, critical step [s], problem message or None).  The limit is the
+    integrator's (2 for explicit Newmark and Verlet, none for implicit average
+    acceleration), lowered by Rayleigh damping for explicit ones to
+    2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max."""
+    # what the partition steps: cells for fem, bonds (and overlap cells) for dem
+    blocks = model.bond_blocks(held) if spec.method == "dem" else model.stiffness_blocks(held)
+    dofs = (held[:, None] * model.dof + np.arange(model.dof)).ravel()
+    mass = np.where(model.fixed[dofs], np.inf, np.repeat(model.mass[held], model.dof))
+    fr = omega_max(blocks, held, mass, model.dof)
+    if fr is None:
+        return None, None, None      # decided once the operator exists (verdict)
+    return (fr, *verdict(scene, spec, fr))
+
+
+def verdict(scene, spec, fr: Frequency):
+    """(critical step, problem message or None) of partition ``spec`` at ``fr``."""
+    from solver.partitions import integrators
+    limit = integrators.make(spec).critical_omega_h()
+    if scene.damping.active and spec.integrator != "implicit":
+        xi = scene.damping.ratio(fr.omega_max)
+        limit = 2.0 * (np.sqrt(1.0 + xi * xi) - xi)
+    crit = fr.critical_step(limit)
+    dt = spec.ratio * scene.time.dt
+    problem = None
+    if fr.omega_max * dt >= limit:
+        problem = (f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
+                   f"{scene.time.dt:.4g} s) is unstable, critical step {crit:.4g} s "
+                   f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}); reduce time.dt or the ratio")
+    return crit, problem

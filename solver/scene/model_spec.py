@@ -1,0 +1,188 @@
+"""Scene sections that describe the structure: networks (inline, generated or
+from a file) and continua (a gmsh mesh, a material, a lattice).
+
+Part of the scene schema (:mod:`solver.scene` re-exports every name).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+
+from solver.model import generators
+from solver.scene.schema import convert, fail, key, tagged
+
+GROUND = -1  # node id of the fixed end of a spring
+
+
+def _node_ref(value, path):
+    if value == "ground":
+        return GROUND
+    if isinstance(value, bool) or not isinstance(value, int):
+        fail(path, f"expected a node id or 'ground', got {value!r}")
+    if value < 0:
+        fail(path, f"node id must be non-negative, got {value}")
+    return value
+
+
+@dataclass(frozen=True)
+class Spring:
+    """A linear spring between two nodes (or a node and the ground)."""
+
+    i: int
+    j: int
+    stiffness: float
+
+
+def _springs(value, path):
+    if not isinstance(value, list):
+        fail(path, f"expected a list of [node_i, node_j, stiffness], got {value!r}")
+    out = []
+    for n, item in enumerate(value):
+        p = f"{path}[{n}]"
+        if not isinstance(item, list) or len(item) != 3:
+            fail(p, f"expected [node_i, node_j, stiffness], got {item!r}")
+        i, j = _node_ref(item[0], p), _node_ref(item[1], p)
+        if i == j:
+            fail(p, f"spring connects {item[0]!r} to itself")
+        k = convert(float, item[2], p, {"positive": True})
+        out.append(Spring(i, j, k))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class ChainGenerator:
+    name: Literal["chain"] = key("generator name")
+    n: int = key("number of masses", positive=True)
+    mass: float = key("mass of every node [kg]", positive=True)
+    stiffness: float = key("stiffness of every spring [N/m]", positive=True)
+    left: Literal["fixed", "free"] = key("left end tied to the ground or free", "fixed")
+    right: Literal["fixed", "free"] = key("right end tied to the ground or free", "free")
+
+    def build(self):
+        return generators.chain(self.n, self.mass, self.stiffness, self.left, self.right)
+
+
+@dataclass(frozen=True)
+class MetamaterialGenerator:
+    name: Literal["metamaterial"] = key("generator name")
+    M: int = key("shells before the resonator band", nonnegative=True)
+    N: int = key("shells carrying a resonator", nonnegative=True)
+    Q: int = key("shells after the resonator band", nonnegative=True)
+    shell_mass: float = key("m_s [kg]", positive=True)
+    resonator_mass: float = key("m_v [kg]", positive=True)
+    k_n: float = key("shell-shell spring and right-end ground spring [N/m]", positive=True)
+    k_s: float = key("shell-resonator spring [N/m]", positive=True)
+    resonators: bool = key("false: the plain chain of shells (seed 000 Fig. 8)", True)
+
+    def build(self):
+        return generators.metamaterial(self.M, self.N, self.Q, self.shell_mass,
+                                       self.resonator_mass, self.k_n, self.k_s, self.resonators)
+
+    def validate(self, path):
+        if self.M + self.N + self.Q < 1:
+            fail(path, "M + N + Q must be at least 1")
+
+
+_generator = tagged("name", {"chain": ChainGenerator, "metamaterial": MetamaterialGenerator})
+
+
+@dataclass(frozen=True)
+class NetworkModel:
+    """Lumped masses joined by linear springs, one DOF per node: given as
+    masses + springs, a generator, or a file."""
+
+    kind: Literal["network"] = key("model kind")
+    masses: tuple[float, ...] | None = key(
+        "mass of each node [kg]; the node ids are the list positions", None, positive=True)
+    springs: tuple[Spring, ...] | None = key(
+        "springs as [node_i, node_j, stiffness N/m]; 'ground' is a fixed end", None,
+        parse=_springs, choices_doc="list of [node|ground, node|ground, float]")
+    generator: ChainGenerator | MetamaterialGenerator | None = key(
+        "a named generator with its parameters (instead of masses and springs)", None,
+        parse=_generator, choices_doc="mapping with name: chain | metamaterial",
+        variants=(ChainGenerator, MetamaterialGenerator))
+    file: str | None = key("NPZ or HDF5 file with arrays mass, spring_i, spring_j (-1 = ground), "
+                           "stiffness; path relative to the working directory", None)
+
+    def validate(self, path):
+        if (self.masses is None) != (self.springs is None):
+            fail(f"{path}.{'springs' if self.springs is None else 'masses'}",
+                 "masses and springs are given together")
+        given = [k for k in ("masses", "generator", "file") if getattr(self, k) is not None]
+        if len(given) != 1:
+            fail(path, "give exactly one of masses + springs, generator, file "
+                 f"({', '.join(given) or 'none'} given)")
+
+
+@dataclass(frozen=True)
+class Material:
+    E: float = key("Young's modulus [Pa]", positive=True)
+    nu: float = key("Poisson's ratio", nonnegative=True)
+    rho: float = key("density [kg/m^3]", positive=True)
+    kind: Literal["plane_stress", "plane_strain", "solid"] = key(
+        "plane_stress (2D, with thickness), plane_strain (2D) or solid (3D)", "solid")
+    thickness: float = key("out-of-plane thickness [m] (plane_stress)", 1.0, positive=True)
+
+    def validate(self, path):
+        if not self.nu < 0.5:
+            fail(f"{path}.nu", f"{self.nu} must be below 0.5")
+
+    def elastic(self):
+        from solver.model.elements import Elastic
+        return Elastic(self.E, self.nu, self.rho, self.kind, self.thickness)
+
+
+@dataclass(frozen=True)
+class LatticeSpec:
+    region: str = key("physical group (cells) filled with the bonded lattice")
+    spacing: float = key("lattice spacing a [m]; the mesh must have a node at every lattice site "
+                         "of the region and one spacing around it", positive=True)
+    kind: Literal["square"] = key("square: square lattice with diagonal bonds in 2D (nu = 1/3 "
+                                  "plane stress, 1/4 plane strain), simple cubic with face "
+                                  "diagonals in 3D (nu = 1/4)", "square")
+
+
+@dataclass(frozen=True)
+class ContinuumModel:
+    """An elastic body meshed with gmsh; nodes carry dim DOFs."""
+
+    kind: Literal["continuum"] = key("model kind")
+    mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the working directory")
+    material: Material = key("linear elastic material")
+    body: str = key("physical group of the body's cells", "solid")
+    fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())
+    lattice: LatticeSpec | None = key("bonded DEM lattice for dem partitions", None)
+    mesh_parameters: dict[str, float] = key("numbers defined before the .geo is read (the .geo "
+                                            "keeps its default with If (!Exists(a)) ...), "
+                                            "e.g. {a: 4.0e-4}", {})
+
+    def validate(self, path):
+        if not self.mesh.endswith((".geo", ".msh")):
+            fail(f"{path}.mesh", f"{self.mesh}: expected a .geo or .msh file")
+
+
+_model = tagged("kind", {"network": NetworkModel, "continuum": ContinuumModel})
+
+
+def _node_set(value, path):
+    """Node ids as a list of ids and {range: [first, end)} items, or one range."""
+    items = [value] if isinstance(value, dict) else value
+    if not isinstance(items, list):
+        fail(path, f"expected a list of node ids or ranges, got {value!r}")
+    out = []
+    for n, item in enumerate(items):
+        p = f"{path}[{n}]"
+        if isinstance(item, dict):
+            if set(item) != {"range"}:
+                fail(p, f"a node range is {{range: [first, end]}}, got {item!r}")
+            r = item["range"]
+            if (not isinstance(r, list) or len(r) != 2 or
+                    any(isinstance(x, bool) or not isinstance(x, int) for x in r) or not 0 <= r[0] < r[1]):
+                fail(f"{p}.range", f"expected [first, end] with 0 <= first < end, got {r!r}")
+            out.extend(range(r[0], r[1]))
+        elif isinstance(item, int) and not isinstance(item, bool) and item >= 0:
+            out.append(item)
+        else:
+            fail(p, f"expected a node id or {{range: [first, end]}}, got {item!r}")
+    return tuple(out)

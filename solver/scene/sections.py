@@ -1,0 +1,310 @@
+"""The scene file: YAML parsed once into typed, validated, frozen objects.
+
+Every key is declared here with its type, default and documentation
+(``python -m solver keys`` prints them; docs/scene.md lists them).  Nothing
+downstream reads raw dictionaries.  Cross-section checks (node ids in range,
+each node owned by exactly one partition, step ratios that divide the system
+step) run in :meth:`Scene.validate`; the keys that refer to the mesh or the
+network are checked when the scene is bound to its model data
+(:func:`solver.model.binding.bind`, called by ``load``), before any work.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Literal
+
+from solver.scene.schema import fail, key
+from solver.scene.model_spec import ContinuumModel, NetworkModel, _model, _node_set
+
+
+@dataclass(frozen=True)
+class Time:
+    end: float = key("end time of the run [s]", positive=True)
+    dt: float = key("base step [s]; a partition steps ratio*dt", positive=True)
+
+
+NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
+
+
+@dataclass(frozen=True)
+class Partition:
+    name: str = key("partition name; also the PETSc options prefix (name_)")
+    method: Literal["fem", "dem"] = key("fem: sparse matrix partition; dem: particles and bonds")
+    integrator: Literal["explicit", "implicit", "verlet"] = key(
+        "explicit / implicit: Newmark predictor-corrector, explicit or implicit form (fem); "
+        "verlet: velocity Verlet (dem)")
+    ratio: int = key("this partition steps ratio*time.dt", positive=True)
+    nodes: tuple[int, ...] = key("node ids owned by this partition: ids and {range: [first, end]} "
+                                 "items (end excluded); or give group", (), parse=_node_set,
+                                 choices_doc="list of int | {range: [int, int]}")
+    group: str | None = key("continuum models: the physical group whose nodes this partition "
+                            "owns (nodes shared with an earlier partition stay there)", None)
+    beta: float = key("Newmark beta (explicit and implicit integrators)", 0.25, nonnegative=True)
+    gamma: float = key("Newmark gamma (explicit and implicit integrators)", 0.5, positive=True)
+    ranks: int | None = key("MPI ranks serving this partition (default: the run's ranks shared "
+                            "by estimated cost; see README, Ranks)", None, positive=True)
+
+    SUPPORTED = {("fem", "explicit"), ("fem", "implicit"), ("dem", "verlet")}
+
+    def validate(self, path):
+        if bool(self.nodes) == (self.group is not None):
+            fail(f"{path}.nodes", "give either nodes or group")
+        if not NAME.match(self.name):
+            fail(f"{path}.name", f"{self.name!r} must be letters and digits, starting with a letter "
+                 "(it becomes the PETSc options prefix)")
+        if (self.method, self.integrator) not in self.SUPPORTED:
+            ok = ", ".join(f"{m}+{i}" for m, i in sorted(self.SUPPORTED))
+            fail(f"{path}.integrator", f"method {self.method} with integrator {self.integrator} "
+                 f"is not supported (supported: {ok})")
+
+
+@dataclass(frozen=True)
+class Coupling:
+    scheme: Literal["overlap", "staggered", "gc"] = key(
+        "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
+        "state and exchange once per system step; staggered: seed 002, the explicit partition "
+        "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
+        "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank)",
+        "overlap")
+    external: Literal["taylor", "layers", "literal"] = key(
+        "external-data treatment: taylor (one layer following the Taylor predictor from the last "
+        "exchange, default), layers (one layer per sub-step, integrated), literal (seed 000: one "
+        "layer integrated by the partition's own scheme)", "taylor")
+
+
+@dataclass(frozen=True)
+class Load:
+    kind: Literal["sine", "half_sine", "tabulated"] = key(
+        "sine: A sin(omega t); half_sine: A sin(pi (t-start)/duration) on [start, start+duration], "
+        "0 elsewhere; tabulated: piecewise linear through table, end values held")
+    node: int | None = key("loaded node (or give group)", None, nonnegative=True)
+    group: str | None = key("continuum models: physical group (edge in 2D, face in 3D) carrying "
+                            "a traction: amplitude in N/m (2D) or N/m^2 (3D)", None)
+    direction: tuple[float, ...] | None = key("continuum models: traction direction (default "
+                                              "[1, 0(, 0)])", None)
+    component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
+    amplitude: float = key("A [N] (sine, half_sine)", 1.0)
+    omega: float | None = key("angular frequency [rad/s] (sine)", None, positive=True)
+    duration: float | None = key("pulse length [s] (half_sine)", None, positive=True)
+    start: float = key("pulse start [s] (half_sine)", 0.0, nonnegative=True)
+    table: tuple[tuple[float, ...], ...] | None = key("[[t, value], ...] with increasing t (tabulated)",
+                                                      None)
+
+    def validate(self, path):
+        if (self.node is None) == (self.group is None):
+            fail(f"{path}.node", "give either node or group")
+        need = {"sine": ("omega",), "half_sine": ("duration",), "tabulated": ("table",)}[self.kind]
+        for name in ("omega", "duration", "table"):
+            given = getattr(self, name) is not None
+            if name in need and not given:
+                fail(f"{path}.{name}", f"required for a {self.kind} load")
+            if name not in need and given:
+                fail(f"{path}.{name}", f"not used by a {self.kind} load")
+        if self.kind == "tabulated":
+            rows = self.table
+            if len(rows) < 2 or any(len(r) != 2 for r in rows):
+                fail(f"{path}.table", "needs at least two [t, value] rows")
+            ts = [r[0] for r in rows]
+            if any(b <= a for a, b in zip(ts, ts[1:])):
+                fail(f"{path}.table", "times must increase strictly")
+
+
+@dataclass(frozen=True)
+class Initial:
+    displacement: dict[int, float] = key("node -> initial displacement", {})
+    velocity: dict[int, float] = key("node -> initial velocity", {})
+
+
+@dataclass(frozen=True)
+class Probe:
+    name: str = key("probe name (HDF5 group /probes/<name>)")
+    node: int | None = key("probed node (or give at)", None, nonnegative=True)
+    at: tuple[float, ...] | None = key("continuum models: coordinates; the nearest mesh node is "
+                                       "probed", None)
+    component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
+
+
+@dataclass(frozen=True)
+class MonolithicReference:
+    kind: Literal["monolithic"] = key("the same model as one partition with a fine step")
+    dt: float = key("step of the reference run [s]; must divide the system step", positive=True)
+    integrator: Literal["explicit", "verlet"] = key(
+        "explicit: Newmark explicit (fem partition); verlet: velocity Verlet (dem partition)",
+        "explicit")
+    cache: bool = key("keep the reference history beside the output (.reference-cache/) and "
+                      "reuse it when model, loads, probes and step are unchanged", True)
+
+
+@dataclass(frozen=True)
+class BarWaveReference:
+    kind: Literal["bar_wave"] = key(
+        "1D wave in a bar loaded at x = 0 (continuum models): speed sqrt(E/rho), particle "
+        "velocity sigma/(rho c) with sigma = traction/thickness (2D) or traction (3D), valid "
+        "until the first reflection from x = length reaches the probe")
+    length: float = key("bar length [m] (where the first reflection starts)", positive=True)
+    load: int = key("index of the load in loads (its time function is the incident pulse)", 0,
+                    nonnegative=True)
+
+
+@dataclass(frozen=True)
+class Fields:
+    every: int = key("system steps between field snapshots", positive=True)
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    every: int = key("system steps between checkpoints: the whole run state goes into the "
+                     "output file (atomically, status running); --restart FILE continues from it",
+                     positive=True)
+
+
+@dataclass(frozen=True)
+class Output:
+    file: str = key("HDF5 output path, relative to the working directory")
+    fields: Fields | None = key("continuum models: XDMF time series of the mesh fields "
+                                "(<file stem>_fields.xdmf) and the DEM particles (<stem>_particles.xdmf) "
+                                "for ParaView", None)
+    energy_every: int | None = key(
+        "system steps between energy samples and blow-up checks (default: at least 100 samples, at "
+        "most ~2000, and one per 10 system steps or fewer once a run has 1000 of them)",
+        None, positive=True)
+    progress: float = key("seconds between progress lines on rank 0 (0: none)", 10.0,
+                          nonnegative=True)
+    checkpoint: Checkpoint | None = key("write the run state into the output file every so "
+                                        "many system steps", None)
+
+
+@dataclass(frozen=True)
+class Damping:
+    alpha: float = key("mass-proportional coefficient [1/s]", 0.0, nonnegative=True)
+    beta: float = key("stiffness-proportional coefficient [s]", 0.0, nonnegative=True)
+
+    @property
+    def active(self) -> bool:
+        return self.alpha > 0 or self.beta > 0
+
+    def ratio(self, omega: float) -> float:
+        """Damping ratio of a mode of frequency omega: 1/2 (alpha/omega + beta omega)."""
+        return 0.5 * (self.alpha / omega + self.beta * omega) if omega > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class Guard:
+    stable_step: bool = key("refuse explicit steps with omega_max*dt >= 2 before stepping", True)
+    energy_bound: float = key(
+        "stop when total energy exceeds this factor times (initial energy + largest |external "
+        "work| so far)", 10.0, positive=True)
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str = key("scene name")
+    time: Time = key("time span and base step")
+    model: NetworkModel | ContinuumModel = key(
+        "the structure: kind network (masses and springs) or continuum (gmsh mesh)",
+        parse=_model, choices_doc="mapping with kind: network | continuum",
+        variants=(NetworkModel, ContinuumModel))
+    partitions: tuple[Partition, ...] = key("partitions; each node is owned by exactly one")
+    coupling: Coupling = key("how partitions exchange", Coupling())
+    loads: tuple[Load, ...] = key("external forces", ())
+    initial: Initial = key("initial state (zero where not given)", Initial())
+    damping: Damping = key("Rayleigh damping C = alpha M + beta K of every partition (bonds "
+                           "included)", Damping())
+    probes: tuple[Probe, ...] = key("recorded node histories", ())
+    reference: Literal["none", "modal"] | MonolithicReference | BarWaveReference = key(
+        "none; modal: exact solution of the network at the probe times; a monolithic run "
+        "{kind: monolithic, dt, integrator}; or the 1D bar wave {kind: bar_wave, length}",
+        "none", parse=None, choices_doc="none | modal | mapping",
+        variants=(MonolithicReference, BarWaveReference))
+    output: Output | None = key("output file; default results/<name>.h5", None)
+    guard: Guard = key("stability and blow-up guards", Guard())
+
+    # --- derived -------------------------------------------------------
+    @property
+    def system_ratio(self) -> int:
+        return max(p.ratio for p in self.partitions)
+
+    @property
+    def system_dt(self) -> float:
+        return self.time.dt * self.system_ratio
+
+    @property
+    def n_system_steps(self) -> int:
+        return int(self.time.end / self.system_dt + 1e-9)
+
+    @property
+    def output_file(self) -> str:
+        return self.output.file if self.output else f"results/{self.name}.h5"
+
+    def validate(self, path):
+        """Checks of the configuration alone; keys that refer to the mesh or the
+        network are checked when the scene is bound (:mod:`solver.model.binding`)."""
+        continuum = self.model.kind == "continuum"
+        if not self.partitions:
+            fail("partitions", "at least one partition is needed")
+        names = set()
+        for p, part in enumerate(self.partitions):
+            if continuum and part.method == "dem" and self.model.lattice is None:
+                fail(f"partitions[{p}].method", "a dem partition on a continuum model needs "
+                     "model.lattice")
+            if part.group is not None and not continuum:
+                fail(f"partitions[{p}].group", "groups name mesh regions: continuum models only")
+            if part.name in names:
+                fail(f"partitions[{p}].name", f"duplicate partition name {part.name!r}")
+            names.add(part.name)
+        if self.coupling.scheme in ("staggered", "gc"):
+            self._check_staggered()
+        big = self.system_ratio
+        for p, part in enumerate(self.partitions):
+            if big % part.ratio:
+                fail(f"partitions[{p}].ratio", f"{part.ratio} does not divide the largest ratio {big}")
+        if self.n_system_steps < 1:
+            fail("time.end", f"{self.time.end} is shorter than one system step ({self.system_dt})")
+        for i, ld in enumerate(self.loads):
+            if ld.group is not None and not continuum:
+                fail(f"loads[{i}].group", "tractions on groups need a continuum model")
+        seen = set()
+        for i, probe in enumerate(self.probes):
+            if (probe.node is None) == (probe.at is None):
+                fail(f"probes[{i}].node", "give either node or at")
+            if probe.at is not None and not continuum:
+                fail(f"probes[{i}].at", "coordinates need a continuum model")
+            if probe.name in seen:
+                fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
+            seen.add(probe.name)
+        if self.output and self.output.fields and not continuum:
+            fail("output.fields", "field output is for continuum models")
+        if self.reference == "modal" and self.damping.active and self.loads:
+            fail("reference", "the damped modal reference covers free vibration (no loads)")
+        if continuum and self.reference == "modal":
+            fail("reference", "modal references are for network models")
+        if continuum and self.initial != Initial():
+            fail("initial", "initial states are for network models (continua start at rest)")
+        if isinstance(self.reference, BarWaveReference):
+            if not continuum:
+                fail("reference.kind", "bar_wave needs a continuum model")
+            if self.reference.load >= len(self.loads) or self.loads[self.reference.load].group is None:
+                fail("reference.load", f"{self.reference.load} is not a traction load")
+        if isinstance(self.reference, MonolithicReference):
+            ratio = self.system_dt / self.reference.dt
+            if abs(ratio - round(ratio)) > 1e-6 * ratio:
+                fail("reference.dt", f"{self.reference.dt} does not divide the system step "
+                     f"{self.system_dt}")
+            if continuum and self.reference.integrator != "explicit":
+                fail("reference.integrator", "continuum references run the explicit fem integrator")
+
+    def _check_staggered(self):
+        parts, scheme = self.partitions, self.coupling.scheme
+        implicit = [p for p in parts if p.integrator == "implicit"]
+        if len(parts) != 2 or len(implicit) != 1:
+            fail("coupling.scheme", f"{scheme} couples exactly two partitions, one with "
+                 f"integrator implicit ({len(parts)} partitions, {len(implicit)} implicit given)")
+        if implicit[0].ratio != self.system_ratio:
+            fail("coupling.scheme", f"{scheme}: the implicit partition '{implicit[0].name}' takes "
+                 "the large step, so its ratio must be the largest")
+        other = next(p for p in parts if p.integrator != "implicit")
+        if scheme == "gc" and (other.method, other.integrator) != ("fem", "explicit"):
+            fail("coupling.scheme", f"gc: the fine partition '{other.name}' must be fem with "
+                 "integrator explicit")
+

@@ -1,0 +1,149 @@
+"""Command line: ``python -m solver SCENE.yaml [--set key.path=value ...] [PETSc options]``.
+
+Also ``python -m solver keys`` (every scene key with type, default and
+documentation) and ``python -m solver schemes`` (integrators and coupling
+schemes with their stability limits).  Errors end the process with one line
+on stderr and an exit code (see README): 2 bad scene or unstable step,
+3 run stopped (non-finite state, energy growth), 4 MPI launch problem.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+from solver.errors import LaunchError, SolverError
+
+USAGE = """usage: python -m solver SCENE.yaml [--set key.path=value ...] [--restart FILE] [PETSc options]
+       python -m solver keys [--markdown [--update docs/scene.md]] | schemes
+PETSc options (e.g. -options_file configs/x.opts, -log_view, -fem_mat_type baij) go to PETSc;
+every partition's PETSc objects carry the prefix <partition name>_ ."""
+
+LAUNCH_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS")
+
+
+def split_args(argv):
+    """(scene path, overrides, PETSc options, restart file) from the command line."""
+    scene, overrides, petsc, restart = None, [], [], None
+    it = iter(argv)
+    for arg in it:
+        if arg == "--restart" or arg.startswith("--restart="):
+            restart = arg.split("=", 1)[1] if "=" in arg else next(it, None)
+            if not restart:
+                raise SolverError("--restart needs the output file of an earlier run")
+        elif arg == "--set":
+            value = next(it, None)
+            if value is None:
+                raise SolverError("--set needs key.path=value")
+            overrides.append(value)
+        elif arg.startswith("--set="):
+            overrides.append(arg[len("--set="):])
+        elif scene is None and not arg.startswith("-") and arg.endswith((".yaml", ".yml")):
+            scene = arg
+        else:
+            petsc.append(arg)
+    return scene, overrides, petsc, restart
+
+
+def check_launch(comm):
+    """Refuse a launcher/library mismatch: the launcher started N processes but
+    MPI reports a world of one (every rank thinks it is alone)."""
+    for var in LAUNCH_VARS:
+        value = os.environ.get(var, "")
+        if value.isdigit() and int(value) > 1 and comm.size == 1:
+            raise LaunchError(
+                f"launched as {value} processes ({var}={value}) but MPI sees a world of 1: the "
+                "mpiexec does not match the MPI library mpi4py/PETSc use; run './run.sh -n N "
+                "SCENE.yaml' or that library's mpiexec")
+
+
+def keys_markdown() -> str:
+    from solver.scene import Scene
+    from solver.scene.schema import describe
+    lines = ["| key | type | default | meaning |", "|---|---|---|---|"]
+    for name, tp, default, doc in describe(Scene):
+        cells = [c.replace("|", "\\|") for c in (tp, default, doc)]
+        lines.append(f"| `{name}` | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
+def update_docs(path: str):
+    """Replace the generated key table between the markers of ``path``."""
+    import re
+    text = open(path).read()
+    new = re.sub(r"(<!-- keys:.*?-->\n).*?(<!-- /keys -->)",
+                 lambda m: f"{m.group(1)}{keys_markdown()}\n{m.group(2)}", text, flags=re.S)
+    open(path, "w").write(new)
+
+
+def print_keys(markdown=False):
+    from solver.scene import Scene
+    from solver.scene.schema import describe
+    if markdown:
+        print(keys_markdown())
+        return
+    for name, tp, default, doc in describe(Scene):
+        print(f"{name:32s} {tp:28s} default {default:14s} {doc}")
+
+
+def print_schemes():
+    from solver.partitions import integrators
+    from solver.scene import Coupling
+    for cls in integrators.CATALOGUE:
+        print(f"{cls.__name__}: {cls.__doc__.strip()}\n")
+    from solver.coupling.schemes import SUPPORT
+    from solver.scene.schema import describe
+    print("coupling.scheme / coupling.external:")
+    for name, tp, default, doc in describe(Coupling):
+        print(f"  {name}: {tp} (default {default}) - {doc}")
+    print("\nsupported combinations:")
+    for scheme, text in SUPPORT.items():
+        print(f"  {scheme}: {text}")
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(USAGE)
+        return 0 if argv else 2
+    if argv[0] == "keys":
+        if "--update" in argv:
+            update_docs(argv[argv.index("--update") + 1])
+            return 0
+        print_keys(markdown="--markdown" in argv)
+        return 0
+    if argv[0] == "schemes":
+        print_schemes()
+        return 0
+    rank = 0
+    try:
+        path, overrides, petsc_args, restart = split_args(argv)
+        if path is None:
+            raise SolverError(f"no scene file (*.yaml) among the arguments\n{USAGE}")
+        from mpi4py import MPI
+        comm = MPI.COMM_WORLD
+        rank = comm.rank
+        check_launch(comm)
+        from solver.model import mesh
+        mesh.read_on(comm)                  # rank 0 meshes/reads, the others receive
+        from solver import scene as scene_mod
+        scene = scene_mod.load(path, overrides)
+        from solver.petscutil import init
+        init(petsc_args)
+        from solver.driver.runner import run, summary
+        result = run(scene, comm, log=print, scene_text=open(path).read(), restart=restart)
+        if rank == 0:
+            for line in summary(result, scene.output_file):
+                print(line, flush=True)
+            from solver.petscutil import unused_options
+            for name in unused_options():
+                print(f"warning: PETSc option {name} was not used (misspelled, or a prefix that "
+                      "names no partition?)", file=sys.stderr, flush=True)
+        return 0
+    except SolverError as e:
+        if rank == 0:
+            print(f"error: {e}", file=sys.stderr, flush=True)
+        return e.exit_code
+    except KeyboardInterrupt:
+        if rank == 0:
+            print("error: interrupted; no output written", file=sys.stderr, flush=True)
+        return 130

@@ -1,0 +1,218 @@
+"""Error against run time: run a scene over step ratios (or base steps) and report.
+
+    python -m solver.tools.sweep SCENE.yaml --ratios 1,2,5,10,20 [-n 1,2]
+        [--treatments taylor,literal] [--schemes overlap] [--partition NAME]
+        [--dts 0.001,0.002] [--out DIR] [--set k=v ...]
+
+For every rank count, scheme, external-data treatment and ratio eta, the coarse
+partition (default: the one with the largest ratio in the scene) steps
+eta*time.dt while the others keep theirs.  With --dts the base step is swept
+instead (at the scene's ratios) and the observed convergence order is fitted.
+Each run is a separate process (through the matching mpiexec for n > 1); its
+stepping wall time, errors and the exchange wait of every rank are read back
+from its HDF5 file.  Time ratio and speed-up are against the first point of
+each variant (seed 000 Table 1's columns).  Writes DIR/sweep.csv,
+DIR/sweep.md and DIR/sweep.png and prints the Markdown table.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from solver.errors import SceneError
+from solver.scene import load
+
+
+def mpiexec() -> str:
+    return os.environ.get("MTS_MPIEXEC") or shutil.which("mpiexec.mpich") or shutil.which("mpiexec")
+
+
+def run_one(scene_path, n, sets, out_file):
+    cmd = [sys.executable, "-m", "solver", scene_path, *sum((["--set", s] for s in sets), []),
+           "--set", f"output.file={out_file}", "--set", "output.progress=0"]
+    if n > 1:
+        cmd = [mpiexec(), "-n", str(n), *cmd]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        tail = (proc.stderr.strip().splitlines() or ["(no message)"])[-1]
+        raise SystemExit(f"sweep: run failed ({' '.join(sets)}): {tail}")
+    return read_run(out_file)
+
+
+def read_run(path) -> dict:
+    with h5py.File(path, "r") as f:
+        a = f.attrs
+        n = int(a["n_system_steps"])
+        row = {"stepping_s": float(a["stepping_wall_time"]), "wall_s": float(a["wall_time"]),
+               "exchange_s": float(a["exchange_wall_time"]), "system_steps": n,
+               "vector_rel_error": float(a.get("vector_rel_error", math.nan))}
+        for name, g in f["partitions"].items():
+            row[f"{name}_s"] = float(g.attrs["wall_time"])
+            row[f"{name}_steps"] = int(g.attrs["steps"])
+            row[f"{name}_wait_us"] = 1e6 * float(g.attrs["exchange_wall_time"]) / max(n, 1)
+        probes = list(f["probes"].values())
+        first = dict(probes[0].attrs) if probes else {}
+    row["max_rel_error"] = float(first.get("max_rel_error", math.nan))
+    row["rms_rel_error"] = float(first.get("rms_rel_error", math.nan))
+    return row
+
+
+def markdown(rows, parts, by_dt) -> str:
+    x = "dt [s]" if by_dt else "η"
+    head = (f"| ranks | scheme | treatment | {x} | system steps | stepping wall [s] | time ratio | "
+            "speed-up | max rel. error | RMS rel. error |")
+    extra = ["eq. 9 error"] if any(not math.isnan(r["vector_rel_error"]) for r in rows) else []
+    if any(r["ranks"] > 1 for r in rows):
+        extra += [f"wait {p} rank [us/step]" for p in parts]
+    head = head + "".join(f" {e} |" for e in extra)
+    lines = [head, "|---" * (head.count("|") - 1) + "|"]
+    for r in rows:
+        cells = [r["ranks"], r["scheme"], r["treatment"], r["dt"] if by_dt else r["eta"],
+                 r["system_steps"], f"{r['stepping_s']:.3f}", f"{r['time_ratio']:.3f}",
+                 f"{r['speedup']:.2f}", f"{r['max_rel_error']:.2e}", f"{r['rms_rel_error']:.2e}"]
+        if "eq. 9 error" in extra:
+            cells.append(f"{r['vector_rel_error']:.2e}")
+        if any(e.startswith("wait") for e in extra):
+            cells += [f"{r[f'{p}_wait_us']:.2f}" if r["ranks"] > 1 else "-" for p in parts]
+        lines.append("| " + " | ".join(map(str, cells)) + " |")
+    return "\n".join(lines)
+
+
+def error_of(r) -> float:
+    return r["vector_rel_error"] if not math.isnan(r["vector_rel_error"]) else r["rms_rel_error"]
+
+
+def orders(rows, variants) -> list[str]:
+    """Observed order of every variant, from a least-squares fit of log error on log dt."""
+    out = []
+    for key in variants:
+        sel = [r for r in rows if (r["ranks"], r["scheme"], r["treatment"]) == key]
+        if len(sel) >= 2:
+            k = np.polyfit(np.log([r["dt"] for r in sel]), np.log([error_of(r) for r in sel]), 1)[0]
+            out.append(f"observed order, {key[1]} / {key[2]} on {key[0]} rank(s): {k:.2f}")
+    return out
+
+
+def plot(rows, path, title, by_dt=False):
+    """Error vs eta (or dt), error vs wall time, wall time vs eta (or dt).
+    Colour = scheme and treatment, line style = rank count."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (ax0, ax1, ax2) = plt.subplots(1, 3, figsize=(15, 4.4))
+    kinds = list(dict.fromkeys((r["scheme"], r["treatment"]) for r in rows))
+    ranks = list(dict.fromkeys(r["ranks"] for r in rows))
+    xkey, xlabel = ("dt", "base step dt [s]") if by_dt else ("eta", "step ratio η")
+    for ki, (scheme, treat) in enumerate(kinds):
+        for ri, n in enumerate(ranks):
+            sel = [r for r in rows if (r["ranks"], r["scheme"], r["treatment"]) == (n, scheme, treat)]
+            if not sel:
+                continue
+            kw = dict(color=f"C{ki}", ls=["-", "--", ":", "-."][ri % 4], marker="o", ms=4,
+                      label=f"{scheme}/{treat}, {n} rank{'s' if n > 1 else ''}")
+            xs, err, wall = ([r[xkey] for r in sel], [error_of(r) for r in sel],
+                             [r["stepping_s"] for r in sel])
+            ax0.loglog(xs, err, **kw)
+            ax1.loglog(wall, err, **kw)
+            ax2.semilogx(xs, wall, **kw)
+            if ki == 0 and ri == 0:
+                for r in sel:
+                    ax1.annotate(f"{'dt' if by_dt else 'η'}={r[xkey]}", (r["stepping_s"], error_of(r)),
+                                 fontsize=7, xytext=(4, -9), textcoords="offset points")
+    ylabel = "error (eq. 9 if several probes, else RMS rel.)"
+    ax0.set(xlabel=xlabel, ylabel=ylabel, title=f"error per {xkey}")
+    ax1.set(xlabel="stepping wall time [s]", ylabel=ylabel, title="error against run time")
+    ax2.set(xlabel=xlabel, ylabel="stepping wall time [s]", title=f"run time per {xkey}")
+    for ax in (ax0, ax1, ax2):
+        ax.grid(True, which="both", alpha=0.3)
+    ax2.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m solver.tools.sweep", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("scene")
+    ap.add_argument("--ratios", default="1,2,3,4,5,10,20")
+    ap.add_argument("--dts", help="sweep the base step instead, e.g. 0.001,0.002,0.006,0.01")
+    ap.add_argument("-n", "--ranks", default="1", help="rank counts, e.g. 1,2")
+    ap.add_argument("--treatments", help="external-data treatments (default: the scene's)")
+    ap.add_argument("--schemes", help="coupling schemes (default: the scene's)")
+    ap.add_argument("--partition", help="partition whose ratio is swept (default: largest ratio)")
+    ap.add_argument("--out", help="output directory (default results/sweep_<scene>)")
+    ap.add_argument("--set", action="append", default=[], dest="sets")
+    args = ap.parse_args(argv)
+    try:
+        scene = load(args.scene, args.sets)
+        ranks = [int(x) for x in args.ranks.split(",")]
+        by_dt = bool(args.dts)
+        points = [float(x) for x in args.dts.split(",")] if by_dt else \
+            [int(x) for x in args.ratios.split(",")]
+    except (SceneError, ValueError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    schemes = (args.schemes or scene.coupling.scheme).split(",")
+    treatments = (args.treatments or scene.coupling.external).split(",")
+    coarse = args.partition or max(scene.partitions, key=lambda p: p.ratio).name
+    if coarse not in {p.name for p in scene.partitions}:
+        print(f"error: --partition: no partition named {coarse!r}", file=sys.stderr)
+        return 2
+    out = Path(args.out or f"results/sweep_{scene.name}")
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    rows, variants = [], []
+    for n in ranks:
+        for scheme in schemes:
+            if scheme == "gc" and n > 1:
+                print(f"sweep: skipping gc on {n} ranks (the GC baseline runs on 1 rank)")
+                continue
+            for treat in treatments:
+                variants.append((n, scheme, treat))
+                base = None
+                for x in points:
+                    sets = [*args.sets, f"coupling.scheme={scheme}", f"coupling.external={treat}",
+                            f"time.dt={x}" if by_dt else f"partitions.{coarse}.ratio={x}"]
+                    f = out / "runs" / f"n{n}_{scheme}_{treat}_{'dt' if by_dt else 'eta'}{x}.h5"
+                    row = run_one(args.scene, n, sets, f)
+                    row.update(ranks=n, scheme=scheme, treatment=treat,
+                               eta=scene.system_ratio if by_dt else x,
+                               dt=x if by_dt else scene.time.dt)
+                    base = base or row["stepping_s"]
+                    row["time_ratio"] = row["stepping_s"] / base
+                    row["speedup"] = base / row["stepping_s"]
+                    rows.append(row)
+                    print(f"sweep: n={n} {scheme}/{treat} {'dt' if by_dt else 'eta'}={x}: "
+                          f"{row['stepping_s']:.3f} s, error {error_of(row):.3e}", flush=True)
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    with open(out / "sweep.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=fields)
+        w.writeheader()
+        w.writerows(rows)
+    parts = [p.name for p in scene.partitions]
+    table = markdown(rows, parts, by_dt)
+    notes = orders(rows, variants) if by_dt else []
+    what = (f"base step swept at ratio {scene.system_ratio}" if by_dt
+            else f"coarse partition '{coarse}' at η x time.dt")
+    (out / "sweep.md").write_text(f"{scene.name}: {what}\n\n{table}\n\n" +
+                                  "".join(f"- {line}\n" for line in notes))
+    plot(rows, out / "sweep.png", f"{scene.name}: error and run time", by_dt)
+    print(table)
+    for line in notes:
+        print(line)
+    print(f"sweep: wrote {out}/sweep.csv, sweep.md, sweep.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
