@@ -79,7 +79,7 @@ def partition_table(a, counts):
     R = scene.system_ratio
     dof = mdl.dof
     graph = overlap.csr(nb)
-    costs = [ranks.cost(owned_nonzeros(graph, lay.owned, dof), R // p.ratio)
+    costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
              for lay, p in zip(layouts, scene.partitions)]
     rows = []
     for N in counts:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.model.dofmap import ranges
 from solver.petscutil import init, vec_on
 
 
@@ -23,26 +24,29 @@ class Exchange:
 
     ``dists``: the Distribution of every partition; ``ranks``: the world ranks
     of every partition (:class:`solver.partitions.ranks.Assignment`); ``parts``: this
-    rank's pieces in ascending partition order."""
+    rank's pieces in ascending partition order; ``dofmap``: the model's
+    :class:`~solver.model.dofmap.DofMap` (DOFs per node may differ)."""
 
-    def __init__(self, comm, dists, ranks, parts, dof, receivers=None):
+    def __init__(self, comm, dists, ranks, parts, dofmap, receivers=None):
         P = init()
         n_nodes = dists[0].number.size
+        counts = dofmap.counts
         # the global Vec: every rank's pieces in rank order, each [u | v | a] of its owned DOFs
         g_base = np.full(n_nodes, -1, dtype=np.int64)     # owner piece's block start
         g_stride = np.zeros(n_nodes, dtype=np.int64)      # its owned DOFs (one field)
-        g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's place in its owned list
+        g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's first DOF in its owned list
         at, local_size = 0, 0
         for r in range(comm.size):
             for p in ranks.partitions_on(r):
                 piece = dists[p].pieces[ranks.ranks[p].index(r)]
                 own = piece.owned
+                n_own = dofmap.count(own)
                 g_base[own] = at
-                g_stride[own] = own.size * dof
-                g_pos[own] = np.arange(own.size)
-                at += 3 * own.size * dof
+                g_stride[own] = n_own
+                g_pos[own] = dofmap.starts(own)
+                at += 3 * n_own
                 if r == comm.rank:
-                    local_size += 3 * own.size * dof
+                    local_size += 3 * n_own
         self.G_arr = np.zeros(local_size)
         self.G = vec_on(self.G_arr, comm, size=(local_size, at))
         self._send, g_at = [], 0
@@ -51,15 +55,14 @@ class Exchange:
             self._send.append((p.state[:, :p.n_own], g_view))
             g_at += 3 * p.n_own
         src, dst, blocks, x_at = [], [], [], 0
-        comp = np.arange(dof)
         for p in parts:
             if receivers is not None and p.layout.index not in receivers:
                 continue
             ext = p.layout.external
-            n_ext = ext.size * dof
-            e_dof = (np.arange(ext.size)[:, None] * dof + comp).ravel()      # local external DOF
-            q_dof = (g_base[ext][:, None] + g_pos[ext][:, None] * dof + comp).ravel()
-            stride = np.repeat(g_stride[ext], dof)
+            n_ext = dofmap.count(ext)
+            e_dof = np.arange(n_ext)                                        # local external DOF
+            q_dof = ranges(g_base[ext] + g_pos[ext], counts[ext])
+            stride = np.repeat(g_stride[ext], counts[ext])
             for f in range(3):                                              # u, v, a blocks
                 src.append(q_dof + f * stride)
                 dst.append(x_at + f * n_ext + e_dof)

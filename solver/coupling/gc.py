@@ -45,10 +45,11 @@ def subdomains(scene, mdl):
                                       si[in_a[sj] & ~in_a[si] & (si >= 0)]]))
     mass_half = mdl.mass.copy()
     mass_half[iface] *= 0.5
+    on_iface = set(iface.tolist())
     model_a = dataclasses.replace(
         mdl, mass=mass_half, spring_i=si[touches_a], spring_j=sj[touches_a],
         spring_k=mdl.spring_k[touches_a],
-        loads=tuple(l for l in mdl.loads if l.dof // mdl.dof not in set(iface.tolist())))
+        loads=tuple(l for l in mdl.loads if int(mdl.dofmap.node_of(l.dof)[0]) not in on_iface))
     model_b = dataclasses.replace(mdl, mass=mass_half, spring_i=si[~touches_a],
                                   spring_j=sj[~touches_a], spring_k=mdl.spring_k[~touches_a])
     held_a = np.concatenate([nodes[a], iface])

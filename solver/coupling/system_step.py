@@ -71,14 +71,14 @@ class ConcurrentOverlap:
         """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme."""
         from solver.partitions.partitioning import build_partitions
         built = build_partitions(scene, model, comm, cls.treatments(scene), say)
-        scheme = cls(comm, built.dists, built.assignment, built.parts, model.dof, scene)
+        scheme = cls(comm, built.dists, built.assignment, built.parts, model.dofmap, scene)
         scheme.layouts, scheme.freqs = built.layouts, built.freqs
         return scheme
 
-    def __init__(self, comm, dists, ranks, parts, dof, scene):
+    def __init__(self, comm, dists, ranks, parts, dofmap, scene):
         self.parts = parts
         need = any(d.layout.layers for d in dists)
-        self.exchange = Exchange(comm, dists, ranks, parts, dof) if need else None
+        self.exchange = Exchange(comm, dists, ranks, parts, dofmap) if need else None
         self.exchanges = [self.exchange] if need else []
         self.clocks = _Clocks(parts, [p.name for p in scene.partitions])
 
@@ -120,14 +120,14 @@ class Staggered(ConcurrentOverlap):
         return ["prescribed" if p.integrator == "implicit" else scene.coupling.external
                 for p in scene.partitions]
 
-    def __init__(self, comm, dists, ranks, parts, dof, scene):
+    def __init__(self, comm, dists, ranks, parts, dofmap, scene):
         self.parts = parts
         i = next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
         local = {p.layout.index: p for p in parts}
         self.implicit = local.get(i)
         self.explicit = local.get(1 - i)
-        self.to_implicit = Exchange(comm, dists, ranks, parts, dof, receivers={i})
-        self.to_explicit = Exchange(comm, dists, ranks, parts, dof, receivers={1 - i})
+        self.to_implicit = Exchange(comm, dists, ranks, parts, dofmap, receivers={i})
+        self.to_explicit = Exchange(comm, dists, ranks, parts, dofmap, receivers={1 - i})
         self.exchanges = [self.to_implicit, self.to_explicit]
         self.exchange = None
         self.clocks = _Clocks(parts, [p.name for p in scene.partitions])

@@ -273,7 +273,7 @@ def add_reference(result, mdl, scene, comm, say):
     if comm.rank == 0:
         t_axis = next(iter(result.probes.values()))["t"]
         if scene.reference == "modal":
-            dofs = [p.node * mdl.dof + p.component for p in scene.probes]
+            dofs = [int(mdl.dofmap.offsets[p.node]) + p.component for p in scene.probes]
             u_ref, _ = reference.modal(mdl, dofs, t_axis, damping=scene.damping)
             refs = {p.name: u_ref[:, i] for i, p in enumerate(scene.probes)}
         elif getattr(scene.reference, "kind", "") == "bar_wave":

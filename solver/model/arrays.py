@@ -1,16 +1,18 @@
 """The structure as arrays: nodes with lumped masses, linear springs, loads.
 
-Pure numpy.  A node carries ``dof`` degrees of freedom (1 for networks;
-2 or 3 for continua and lattices later); DOF ``c`` of node ``n`` has index
-``n * dof + c`` in every vector.  Springs are stored as index arrays with
+Pure numpy.  Nodes carry the DOFs of the model's ``dofmap`` (1 per node for
+networks, dim for continua; counts may differ between nodes); DOF ``c`` of
+node ``n`` has index ``dofmap.offsets[n] + c`` in every model vector.  Springs are stored as index arrays with
 ``GROUND`` (-1) for a fixed end, so partitions can select theirs with numpy.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from solver.model.dofmap import DofMap
 from solver.model.loads import LoadFunction, load_function
 from solver.scene import Scene
 
@@ -29,7 +31,8 @@ class Model:
     """Whole-structure data shared by all partitions.
 
     mass: [n_nodes]; spring_i, spring_j: [n_springs] node ids (GROUND = -1);
-    spring_k: [n_springs]; u0, v0: [n_nodes * dof].
+    spring_k: [n_springs]; u0, v0: [n_dofs].  ``dof`` DOFs per node, or
+    ``dof_counts`` [n_nodes] when nodes differ (see :mod:`solver.model.dofmap`).
     """
 
     dof: int
@@ -40,10 +43,17 @@ class Model:
     loads: tuple[PointLoad, ...]
     u0: np.ndarray
     v0: np.ndarray
+    dof_counts: np.ndarray | None = None
 
     @property
     def n_nodes(self) -> int:
         return self.mass.size
+
+    @cached_property
+    def dofmap(self) -> DofMap:
+        if self.dof_counts is not None:
+            return DofMap(self.dof_counts)
+        return DofMap.uniform(self.n_nodes, self.dof)
 
     @property
     def fixed(self) -> np.ndarray:
@@ -52,7 +62,7 @@ class Model:
 
     @property
     def n_dofs(self) -> int:
-        return self.n_nodes * self.dof
+        return self.dofmap.n_dofs
 
     def neighbours(self) -> list[np.ndarray]:
         """Adjacent nodes of every node (ground excluded)."""

@@ -10,6 +10,7 @@ q [N/m] on a 2D edge, a pressure-like load [N/m^2] on a 3D face).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -17,6 +18,7 @@ from solver.model import data as model_data
 from solver.partitions.assembly import group_matrices, nodal
 from solver.model.loads import load_function
 from solver.model.arrays import PointLoad
+from solver.model.dofmap import DofMap
 
 
 @dataclass(frozen=True)
@@ -36,9 +38,13 @@ class ContinuumArrays:
     def n_nodes(self) -> int:
         return self.mass.size
 
+    @cached_property
+    def dofmap(self) -> DofMap:
+        return DofMap.uniform(self.n_nodes, self.dof)
+
     @property
     def n_dofs(self) -> int:
-        return self.n_nodes * self.dof
+        return self.dofmap.n_dofs
 
     def _held(self, held):
         inh = np.zeros(self.n_nodes, bool)

@@ -1,10 +1,12 @@
-"""Assembly of element blocks into PETSc matrices with block size = dof.
+"""Assembly of element blocks into PETSc matrices over a DOF map.
 
 Every operator is a sum of element blocks: mesh cells (K_e), lattice bonds
 (k n n^T [[1, -1], [-1, 1]]), network springs ([[k, -k], [-k, k]], or [[k]]
-to the ground).  A *block set* is ``(conn [n_el, k], Ke [n_el, k dof, k dof])``
-with ``conn`` in node numbers; :func:`matrix` inserts them with
-MatSetValuesBlocked, preallocated by PETSc's MATPREALLOCATOR, each rank only
+to the ground).  A *block set* is ``(conn [n_el, k], Ke [n_el, nd, nd])``
+with ``conn`` in node numbers and nd the DOFs of an element's nodes
+(:mod:`solver.model.dofmap`); :func:`matrix` inserts them with
+MatSetValuesBlocked when every node has the same DOF count (MatSetValues
+otherwise), preallocated by PETSc's MATPREALLOCATOR, each rank only
 its own rows (other rows are passed as -1, which PETSc skips).  Matrix types
 that the AIJ family's preallocation does not cover (SELL, dense, ...) are
 assembled as AIJ and converted with MatConvert, so every type holds the same
@@ -37,25 +39,27 @@ class CellStiffness:
         return CellStiffness(self.family, self.points, self.conn[mask], self.material)
 
 
-def element_dofs(conn: np.ndarray, dim: int) -> np.ndarray:
-    """Global DOFs of every element [n_el, n_nodes*dim]."""
-    return (conn[:, :, None] * dim + np.arange(dim)).reshape(len(conn), -1)
+def element_dofs(conn: np.ndarray, dofmap) -> np.ndarray:
+    """Model DOFs of every element [n_el, nd] (``dofmap``: a DofMap or a DOF count)."""
+    if isinstance(dofmap, (int, np.integer)):
+        return (conn[:, :, None] * dofmap + np.arange(dofmap)).reshape(len(conn), -1)
+    return dofmap.element_dofs(conn, dofmap.offsets[:-1])
 
 
-def stiffness_triplets(Ke: np.ndarray, conn: np.ndarray, dim: int):
+def stiffness_triplets(Ke: np.ndarray, conn: np.ndarray, dofmap):
     """COO (rows, cols, values) of element matrices Ke [n_el, nd, nd]."""
-    dofs = element_dofs(conn, dim)
+    dofs = element_dofs(conn, dofmap)
     nd = dofs.shape[1]
     rows = np.repeat(dofs, nd, axis=1).ravel()
     cols = np.tile(dofs, (1, nd)).ravel()
     return rows, cols, Ke.reshape(len(Ke), -1).ravel()
 
 
-def triplets(block_sets, dof: int):
+def triplets(block_sets, dofmap):
     """COO of block sets (small operators: dense checks and references)."""
     r, c, v = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
     for conn, Ke in block_sets:
-        a, b, x = stiffness_triplets(Ke[:len(conn)], conn, dof)
+        a, b, x = stiffness_triplets(Ke[:len(conn)], conn, dofmap)
         r.append(a)
         c.append(b)
         v.append(x)
@@ -63,6 +67,7 @@ def triplets(block_sets, dof: int):
 
 
 def _insert(A, block_sets, number, lo, hi, scale, P):
+    """Add block sets by node blocks (``number``: node -> matrix node, rows lo..hi)."""
     add = P.InsertMode.ADD_VALUES
     for conn, Ke in block_sets:
         for s in range(0, len(conn), CHUNK):
@@ -76,27 +81,58 @@ def _insert(A, block_sets, number, lo, hi, scale, P):
                                   ke * scale if scale != 1.0 else ke, add)
 
 
-def default_type(dof: int, solved: bool = False) -> str:
+def _insert_scalar(A, block_sets, dofmap, first, lo, hi, scale, P):
+    """Add block sets DOF by DOF (``first``: node -> its first matrix DOF, rows lo..hi)."""
+    add = P.InsertMode.ADD_VALUES
+    for conn, Ke in block_sets:
+        for s in range(0, len(conn), CHUNK):
+            c = dofmap.element_dofs(conn[s:s + CHUNK], first)
+            rows = np.where((c >= lo) & (c < hi), c, -1).astype(P.IntType)
+            keep = (rows >= 0).any(axis=1)
+            if not keep.any():
+                continue
+            ke = Ke[np.arange(s, s + len(c))[keep]]
+            A.setValuesRCV(rows[keep], c[keep].astype(P.IntType),
+                           ke * scale if scale != 1.0 else ke, add)
+
+
+def default_type(dof, solved: bool = False) -> str:
     """BAIJ for vector DOFs (blocks of dof x dof: a third of AIJ's index traffic;
-    MatMult 3.4x faster on the 862k-DOF hexahedral block), AIJ for scalars and
-    for matrices a KSP solves (every PC takes AIJ)."""
-    return "baij" if dof > 1 and not solved else "aij"
+    MatMult 3.4x faster on the 862k-DOF hexahedral block), AIJ for scalars, for
+    mixed DOF counts (``dof`` None) and for matrices a KSP solves (every PC
+    takes AIJ)."""
+    return "baij" if dof is not None and dof > 1 and not solved else "aij"
 
 
-def matrix(block_sets, number, n_local: int, n_global: int, first: int, dof: int, comm,
+def matrix(block_sets, number, n_local: int, n_global: int, first: int, dofmap, comm,
            prefix: str, scale: float = 1.0, diagonal=None, mat_type: str = "aij", graph=None):
     """Square matrix (type ``mat_type`` unless the options say otherwise) over
-    ``n_global`` nodes x ``dof``; this rank holds the
-    ``n_local`` nodes from node ``first``.  ``block_sets``: a callable that
-    yields (conn, Ke) block sets (called twice); ``number``: node -> matrix
-    node number (-1: not in the matrix); ``diagonal``: values added to this
-    rank's diagonal (e.g. the mass of K_eff); ``graph``: (indptr, indices) node
-    adjacency covering every block, which preallocates AIJ and BAIJ without a
-    pass over the elements (otherwise PETSc's MATPREALLOCATOR does)."""
+    the ``n_global`` nodes of the node numbering ``number`` (node -> matrix node,
+    -1: not in the matrix), each with the DOFs of ``dofmap`` (a
+    :class:`~solver.model.dofmap.DofMap`, or a DOF count for all nodes); this
+    rank holds the ``n_local`` nodes from node ``first``.  ``block_sets``: a
+    callable that yields (conn, Ke) block sets (called twice); ``diagonal``:
+    values added to this rank's diagonal (e.g. the mass of K_eff); ``graph``:
+    (indptr, indices) node adjacency covering every block, which preallocates
+    AIJ and BAIJ without a pass over the elements (otherwise PETSc's
+    MATPREALLOCATOR does).  Nodes with equal DOF counts are inserted by blocks
+    (block size = the count); mixed counts make a scalar AIJ matrix."""
+    if isinstance(dofmap, (int, np.integer)):
+        return _matrix(block_sets, number, n_local, n_global, first, int(dofmap), comm, prefix,
+                       scale, diagonal, mat_type, graph)
+    if dofmap.block is not None:
+        return _matrix(block_sets, number, n_local, n_global, first, dofmap.block, comm, prefix,
+                       scale, diagonal, mat_type, graph)
+    return _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, scale,
+                          diagonal, mat_type)
+
+
+def _create(comm, sizes, bsize, mat_type, prefix):
+    """A Mat of ``mat_type`` (or the type the options give); types outside the
+    AIJ family are created as AIJ, to be converted after assembly."""
     P = init()
-    sizes = ((n_local * dof, n_global * dof), (n_local * dof, n_global * dof))
     A = P.Mat().create(comm=comm)
-    A.setSizes(sizes, bsize=dof)
+    A.setSizes(sizes, bsize=bsize)
     A.setType(mat_type)
     A.setOptionsPrefix(prefix)
     A.setFromOptions()                           # -<prefix>mat_type overrides the default
@@ -104,34 +140,37 @@ def matrix(block_sets, number, n_local: int, n_global: int, first: int, dof: int
     if "aij" not in wanted:                      # SELL, dense, ...: build AIJ, convert
         A.destroy()
         A = P.Mat().create(comm=comm)
-        A.setSizes(sizes, bsize=dof)
+        A.setSizes(sizes, bsize=bsize)
         A.setType(P.Mat.Type.AIJ)
-    lo, hi = first, first + n_local
-    kind = A.getType()
-    if graph is not None and "sbaij" not in kind and ("baij" in kind or "aij" in kind):
-        d_nnz, o_nnz = _graph_nnz(graph, number, lo, hi)
-        if "baij" not in kind:                   # AIJ counts scalar rows
-            d_nnz, o_nnz = np.repeat(d_nnz * dof, dof), np.repeat(o_nnz * dof, dof)
-        A.setPreallocationNNZ((d_nnz.astype(P.IntType), o_nnz.astype(P.IntType)))
+    return A, wanted
+
+
+def _preallocate(A, comm, sizes, bsize, insert, own, P):
+    """Preallocate ``A`` with PETSc's MATPREALLOCATOR from ``insert(pre)`` plus
+    every owned diagonal entry ``own``."""
+    pre = P.Mat().create(comm=comm)
+    pre.setSizes(sizes, bsize=bsize)
+    pre.setType(P.Mat.Type.PREALLOCATOR)
+    pre.setUp()
+    insert(pre)
+    eye = np.zeros((own.size, bsize, bsize))
+    if bsize > 1:
+        pre.setValuesBlockedRCV(own[:, None], own[:, None], eye, P.InsertMode.ADD_VALUES)
     else:
-        pre = P.Mat().create(comm=comm)
-        pre.setSizes(sizes, bsize=dof)
-        pre.setType(P.Mat.Type.PREALLOCATOR)
-        pre.setUp()
-        _insert(pre, block_sets(), number, lo, hi, 1.0, P)
-        own = np.arange(lo, hi, dtype=P.IntType)[:, None]
-        eye = np.zeros((n_local, dof, dof))
-        pre.setValuesBlockedRCV(own, own, eye, P.InsertMode.ADD_VALUES)   # every diagonal block
-        pre.assemble()
-        pre.preallocatorPreallocate(A, fill=True)
-        pre.destroy()
+        pre.setValuesRCV(own[:, None], own[:, None], eye, P.InsertMode.ADD_VALUES)
+    pre.assemble()
+    pre.preallocatorPreallocate(A, fill=True)
+    pre.destroy()
+
+
+def _finish(A, insert, diagonal, wanted, prefix, P):
     if diagonal is None:
         # axis-aligned bonds carry exact zeros in their k n n^T blocks: not stored
         A.setOption(P.Mat.Option.IGNORE_ZERO_ENTRIES, True)
     if A.getType().endswith("sbaij"):
         # symmetric storage keeps the upper triangle; the lower one is the same
         A.setOption(P.Mat.Option.IGNORE_LOWER_TRIANGULAR, True)
-    _insert(A, block_sets(), number, lo, hi, scale, P)
+    insert(A)
     A.assemble()
     if diagonal is not None:
         d = A.createVecLeft()
@@ -142,6 +181,50 @@ def matrix(block_sets, number, n_local: int, n_global: int, first: int, dof: int
         A.convert(wanted)                       # in place
         A.setOptionsPrefix(prefix)
     return A
+
+
+def _matrix(block_sets, number, n_local, n_global, first, dof, comm, prefix, scale, diagonal,
+            mat_type, graph):
+    """Every node with ``dof`` DOFs: blocks of dof x dof."""
+    P = init()
+    sizes = ((n_local * dof, n_global * dof), (n_local * dof, n_global * dof))
+    A, wanted = _create(comm, sizes, dof, mat_type, prefix)
+    lo, hi = first, first + n_local
+    kind = A.getType()
+    if graph is not None and "sbaij" not in kind and ("baij" in kind or "aij" in kind):
+        d_nnz, o_nnz = _graph_nnz(graph, number, lo, hi)
+        if "baij" not in kind:                   # AIJ counts scalar rows
+            d_nnz, o_nnz = np.repeat(d_nnz * dof, dof), np.repeat(o_nnz * dof, dof)
+        A.setPreallocationNNZ((d_nnz.astype(P.IntType), o_nnz.astype(P.IntType)))
+    else:
+        _preallocate(A, comm, sizes, dof, lambda M: _insert(M, block_sets(), number, lo, hi, 1.0, P),
+                     np.arange(lo, hi, dtype=P.IntType), P)
+    return _finish(A, lambda M: _insert(M, block_sets(), number, lo, hi, scale, P), diagonal,
+                   wanted, prefix, P)
+
+
+def _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, scale, diagonal,
+                   mat_type):
+    """Nodes with differing DOF counts: scalar rows, preallocated by PETSc."""
+    P = init()
+    dof_first = dofmap.numbered(number)
+    numbered = number >= 0
+    lo = int(dofmap.counts[numbered & (number < first)].sum())
+    hi = lo + int(dofmap.counts[numbered & (number >= first) & (number < first + n_local)].sum())
+    n_global = int(dofmap.counts[numbered].sum())
+    sizes = ((hi - lo, n_global), (hi - lo, n_global))
+    A, wanted = _create(comm, sizes, 1, "aij" if "baij" in mat_type else mat_type, prefix)
+    if "baij" in A.getType():
+        kind = A.getType()
+        A.destroy()
+        from solver.errors import SceneError
+        raise SceneError(f"-{prefix}mat_type {kind}: nodes with differing DOF counts need a "
+                         "scalar matrix type (aij, sell, dense)")
+
+    def insert(M, s):
+        _insert_scalar(M, block_sets(), dofmap, dof_first, lo, hi, s, P)
+    _preallocate(A, comm, sizes, 1, lambda M: insert(M, 1.0), np.arange(lo, hi, dtype=P.IntType), P)
+    return _finish(A, lambda M: insert(M, scale), diagonal, wanted, prefix, P)
 
 
 def _graph_nnz(graph, number, lo, hi):

@@ -19,18 +19,23 @@ class DemPartition(Partition):
 
     def build_force(self, model, layout):
         n_p, dof = layout.n_held, self.dof
+        # [particle, component] views; with differing DOF counts, flat views and
+        # each particle's first DOF
+        shape = (n_p, dof) if dof is not None else (-1,)
         self.fields = {
-            "mass": self.mass.reshape(n_p, dof),
-            "displacement": self.U.reshape(n_p, dof),
-            "velocity": self.V.reshape(n_p, dof),
-            "acceleration": self.A.reshape(n_p, dof),
+            "mass": self.mass.reshape(shape),
+            "displacement": self.U.reshape(shape),
+            "velocity": self.V.reshape(shape),
+            "acceleration": self.A.reshape(shape),
             "global_id": layout.held,
         }
+        if dof is None:
+            self.fields["first_dof"] = self.starts
         blocks = model.bond_blocks(self.whole_held())
         B = self.operator(blocks, scale=-1.0)
         B.setName(f"{self.name}_bonds")
         self.built = [f"particles {n_p} ({layout.n_owned} owned), fields "
                       f"{', '.join(self.fields)}",
                       f"bond operator {B.getSize()[0]}x{B.getSize()[0]} (type {B.getType()}, "
-                      f"block size {dof})"]
+                      f"block size {B.getBlockSize()})"]
         return LinearForce(B, blocks)

@@ -89,15 +89,16 @@ class Partition:
         self.dt = spec.ratio * base_dt
         self.n_sub = system_ratio // spec.ratio
         self.integrator = integrators.make(spec)
-        dof = model.dof
-        self.dof = dof
+        dm = self.dofmap = model.dofmap
+        self.dof = dm.block                     # DOFs per node when all nodes agree, else None
         held = layout.held
-        self.held_dofs = (held[:, None] * dof + np.arange(dof)).ravel()
-        self.n_own = layout.n_owned * dof
+        self.held_dofs = dm.dofs(held)
+        self.starts = dm.starts(held)           # each held node's first local DOF
+        self.n_own = dm.count(layout.owned)
         n = self.held_dofs.size
         # this rank's rows in the partition's distributed DOF numbering
-        self.first = layout.start * dof
-        self.n_global = self.dist.n_held * dof
+        self.first = sum(dm.count(pc.held) for pc in self.dist.pieces[:layout.piece])
+        self.n_global = dm.count(self.dist.layout.held)
         self.state = np.zeros((3, n))
         self.U, self.V, self.A = self.state
         self.u, self.v, self.a = (vec_on(x, comm) for x in (self.U, self.V, self.A))
@@ -106,7 +107,7 @@ class Partition:
         self._work = {name: np.zeros(n) for name in self.integrator.work}
         for name, arr in self._work.items():
             setattr(self, name, vec_on(arr, comm))
-        self.mass = np.repeat(model.mass[held], dof)
+        self.mass = np.repeat(model.mass[held], dm.counts[held])
         self._minv = 1.0 / self.mass
         self.fixed_dofs = model.fixed[self.held_dofs]
         self._minv[self.fixed_dofs] = 0.0                     # fixed DOFs never accelerate
@@ -157,7 +158,7 @@ class Partition:
         element block sets (global node ids; see :mod:`solver.partitions.assembly`)."""
         from solver.partitions.assembly import default_type, matrix
         return matrix(lambda: block_sets, self.dist.number, self.layout.n_held, self.dist.n_held,
-                      self.layout.start, self.dof, self.comm, self.prefix, scale=scale,
+                      self.layout.start, self.dofmap, self.comm, self.prefix, scale=scale,
                       diagonal=diagonal, mat_type=default_type(self.dof, solved), graph=self.graph)
 
     def whole_held(self):
@@ -167,18 +168,18 @@ class Partition:
     def _setup_loads(self, model, layout):
         """Group the held loaded DOFs by time function: one numpy update per group
         and step (a traction on a face is one group), not a Python loop per DOF."""
-        nodes = np.array([l.dof // model.dof for l in model.loads], dtype=np.int64)
+        nodes, comps = model.dofmap.node_of([l.dof for l in model.loads])
         local = layout.local(nodes) if nodes.size else nodes
         groups: dict[int, tuple] = {}
         first: dict[int, int] = {}
         for i, load in enumerate(model.loads):
             first.setdefault(id(load.function), i)
-        for load, loc in zip(model.loads, local):
+        for load, loc, comp in zip(model.loads, local, comps):
             if loc < 0:
                 continue
             _, at, idx, scale, own = groups.setdefault(
                 id(load.function), (first[id(load.function)], load.function.at, [], [], []))
-            idx.append(int(loc) * model.dof + load.dof % model.dof)
+            idx.append(int(self.starts[loc] + comp))
             scale.append(load.scale)
             own.append(loc < layout.n_owned)
         self._loads = [LoadGroup(*g) for g in groups.values()]
@@ -275,7 +276,7 @@ class Partition:
 
     def local_index(self, node: int, component: int) -> int:
         loc = int(self.layout.local(np.array([node]))[0])
-        return loc * self.dof + component
+        return int(self.starts[loc]) + component
 
     def destroy(self):
         for name in ("u", "v", "a", "r", "minv", *self.integrator.work):

@@ -28,9 +28,11 @@ class Frequency:
         return omega_h / self.omega_max if self.omega_max > 0 else float("inf")
 
 
-def omega_max(block_sets, held, mass: np.ndarray, dof: int) -> Frequency:
+def omega_max(block_sets, held, mass: np.ndarray, dofmap) -> Frequency:
     """Largest omega of K x = omega^2 M x for the element ``block_sets`` (global
-    node ids) over ``held`` nodes and lumped ``mass`` per held DOF."""
+    node ids) over ``held`` nodes (DOFs per ``dofmap``, the model's) and lumped
+    ``mass`` per held DOF."""
+    from solver.model.dofmap import DofMap
     from solver.partitions.assembly import triplets
     n = mass.size
     if n == 0 or not any(len(c) for c, _ in block_sets):
@@ -38,7 +40,8 @@ def omega_max(block_sets, held, mass: np.ndarray, dof: int) -> Frequency:
     if n <= DENSE_LIMIT:
         local = np.full(int(held.max()) + 1, -1, dtype=np.int64)
         local[held] = np.arange(held.size)
-        rows, cols, vals = triplets([(local[c], k) for c, k in block_sets], dof)
+        rows, cols, vals = triplets([(local[c], k) for c, k in block_sets],
+                                    DofMap(dofmap.counts[held]))
         s = 1.0 / np.sqrt(mass)      # fixed DOFs carry infinite mass: their rows drop out
         A = np.zeros((n, n))
         np.add.at(A, (rows, cols), vals * s[rows] * s[cols])
@@ -107,9 +110,9 @@ def check(scene, spec, model, held):
     2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max."""
     # what the partition steps: cells for fem, bonds (and overlap cells) for dem
     blocks = model.bond_blocks(held) if spec.method == "dem" else model.stiffness_blocks(held)
-    dofs = (held[:, None] * model.dof + np.arange(model.dof)).ravel()
-    mass = np.where(model.fixed[dofs], np.inf, np.repeat(model.mass[held], model.dof))
-    fr = omega_max(blocks, held, mass, model.dof)
+    dm = model.dofmap
+    mass = np.where(model.fixed[dm.dofs(held)], np.inf, np.repeat(model.mass[held], dm.counts[held]))
+    fr = omega_max(blocks, held, mass, dm)
     if fr is None:
         return None, None, None      # decided once the operator exists (verdict)
     return (fr, *verdict(scene, spec, fr))

@@ -108,3 +108,23 @@ def test_mesh_is_read_on_one_rank_and_broadcast():
     points = WORLD.allgather(mesh.points)
     assert points[0].shape == (164, 2) and all(np.array_equal(points[0], p) for p in points)
     assert sorted(mesh.groups) == ["left", "right", "solid"]
+
+
+def test_mixed_dof_counts_split_over_ranks():
+    """Nodes with 1 and 2 DOFs (tests/mixed_dofs.py): scalar MPIAIJ operators,
+    pieces and the exchange over all ranks give the 1-rank histories."""
+    from mixed_dofs import mixed, run
+    from solver.model import arrays
+    from solver.scene import from_dict
+    raw = raw_scene("six_dof")
+    raw["time"]["end"] = 0.05 if OVERSUBSCRIBED else 1.0
+    scene = from_dict(raw)
+    model = mixed(arrays.build(scene))
+    n = scene.n_system_steps
+    serial = run(scene, model, MPI.COMM_SELF, n)
+    parallel = run(scene, model, WORLD, n)
+    assert sorted(serial) == sorted(parallel) and len(serial) == 9
+    for key in serial:
+        a, b = serial[key], parallel[key]
+        assert np.abs(a - b).max() <= 1e-12 * max(np.abs(a).max(), 1e-30), key
+    WORLD.barrier()
