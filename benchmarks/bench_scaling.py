@@ -73,12 +73,11 @@ def partition_table(a, counts):
     from solver.coupling.schemes import scheme_class
     scene = scene_mod.load(SCENE, overrides(a, 10))
     mdl = model_mod.build(scene)
-    nb = mdl.neighbours()
+    graph = mdl.graph()
     treat = scheme_class(scene.coupling.scheme).treatments(scene)
-    layouts = overlap.derive(nb, scene.partitions, overlap.layer_counts(scene.partitions, treat))
+    layouts = overlap.derive(graph, scene.partitions, overlap.layer_counts(scene.partitions, treat))
     R = scene.system_ratio
     dof = mdl.dof
-    graph = overlap.csr(nb)
     costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
              for lay, p in zip(layouts, scene.partitions)]
     rows = []
@@ -88,14 +87,14 @@ def partition_table(a, counts):
         per_rank = {r: {"owned": 0, "ghost": 0, "ext": 0, "bytes": 0.0, "msgs": 0, "cost": 0.0}
                     for r in range(N)}
         for p, lay in enumerate(layouts):
-            dist = distribute.split(lay, nb, len(asg.ranks[p]))
+            dist = distribute.split(lay, graph, len(asg.ranks[p]))
             piece_of = np.full(mdl.n_nodes, -1)
             for piece in dist.pieces:
                 piece_of[piece.held] = piece.piece
             n_sub = R // scene.partitions[p].ratio
             for piece, r in zip(dist.pieces, asg.ranks[p]):
                 held = piece.held
-                cols = np.unique(np.concatenate([nb[g] for g in held.tolist()]))
+                cols = np.unique(graph.rows(held))
                 cols = cols[(dist.number[cols] >= 0) & (piece_of[cols] != piece.piece)]
                 peers = np.unique(piece_of[cols]).size
                 ext_peers = np.unique(piece.external_owner).size if piece.external.size else 0

@@ -101,7 +101,7 @@ def matmult_table(scene_path: Path) -> list[dict]:
     held = np.arange(n)
     blocks = mdl.stiffness_blocks(held)
     orders = {"gmsh": np.arange(n)}
-    perm = rcm(held, mdl.neighbours())
+    perm = rcm(held, mdl.graph())
     number = np.empty(n, dtype=np.int64)
     number[perm] = np.arange(n)
     orders["RCM"] = number

@@ -9,7 +9,7 @@ from solver.scene import load
 def layouts(treatment, fem_ratio=5):
     scene = load("configs/six_dof.yaml", [f"partitions.fem.ratio={fem_ratio}"])
     m = model.build(scene)
-    return overlap.derive(m.neighbours(), scene.partitions,
+    return overlap.derive(m.graph(), scene.partitions,
                           overlap.layer_counts(scene.partitions, [treatment] * 2)), m
 
 

@@ -72,7 +72,7 @@ class GravouilCombescure:
     @classmethod
     def build(cls, scene, model, comm, say):
         scheme = cls(scene, model, comm)
-        scheme.layouts = [p.layout for p in scheme.parts]
+        scheme.layouts, scheme.model = [p.layout for p in scheme.parts], model
         return scheme
 
     def __init__(self, scene, mdl, comm):

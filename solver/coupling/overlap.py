@@ -52,14 +52,6 @@ class Layout:
         return np.where(hit, order[pos], -1)
 
 
-def csr(neighbours):
-    """(indptr, indices) of a list of neighbour arrays: the node graph as arrays."""
-    deg = np.array([len(x) for x in neighbours], dtype=np.int64)
-    indptr = np.concatenate([[0], np.cumsum(deg)])
-    indices = np.concatenate(neighbours) if len(neighbours) else np.zeros(0, dtype=np.int64)
-    return indptr, indices.astype(np.int64)
-
-
 def owner_map(n_nodes: int, partitions) -> np.ndarray:
     """Owning partition index of every node."""
     owner = np.full(n_nodes, -1, dtype=np.int64)
@@ -68,15 +60,16 @@ def owner_map(n_nodes: int, partitions) -> np.ndarray:
     return owner
 
 
-def derive(neighbours: list[np.ndarray], partitions, n_layers) -> list[Layout]:
+def derive(graph, partitions, n_layers) -> list[Layout]:
     """Layouts of all partitions.
 
-    neighbours: adjacency of every node; partitions: objects with ``name`` and
-    ``nodes``; n_layers: number of external layers of each partition.
+    graph: the node graph (:class:`solver.model.graph.Graph`); partitions:
+    objects with ``name`` and ``nodes``; n_layers: number of external layers of
+    each partition.
     """
-    n = len(neighbours)
+    n = graph.n_nodes
     owner = owner_map(n, partitions)
-    indptr, col = csr(neighbours)
+    indptr, col = graph
     row = np.repeat(np.arange(n), np.diff(indptr))
     layouts = []
     for p, part in enumerate(partitions):

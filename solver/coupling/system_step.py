@@ -71,8 +71,8 @@ class ConcurrentOverlap:
         """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme."""
         from solver.partitions.partitioning import build_partitions
         built = build_partitions(scene, model, comm, cls.treatments(scene), say)
-        scheme = cls(comm, built.dists, built.assignment, built.parts, model.dofmap, scene)
-        scheme.layouts, scheme.freqs = built.layouts, built.freqs
+        scheme = cls(comm, built.dists, built.assignment, built.parts, built.model.dofmap, scene)
+        scheme.layouts, scheme.freqs, scheme.model = built.layouts, built.freqs, built.model
         return scheme
 
     def __init__(self, comm, dists, ranks, parts, dofmap, scene):

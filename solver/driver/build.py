@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from solver.model import arrays as model_mod
 from solver.coupling import overlap
+from solver.errors import SolverError
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
 
@@ -19,7 +20,8 @@ def _silent(*_):
 
 @dataclass
 class Assembly:
-    """Everything a run steps: the model, all layouts, this rank's partitions
+    """Everything a run steps: the model (rank 0: all of it; other ranks: the
+    cells and bonds touching their nodes), all layouts, this rank's partitions
     and the coupling scheme (which owns the exchanges)."""
 
     model: object
@@ -46,11 +48,21 @@ def build(scene, comm, say=_silent) -> Assembly:
     n_sys = scene.n_system_steps
     Dt = scene.system_dt
 
-    mdl = model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments))
+    # the whole model on rank 0 only; the partitions stage sends every rank its share
+    mdl, error = None, None
+    if comm.rank == 0:
+        try:
+            mdl = model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments))
+        except SolverError as e:
+            error = e
+    if comm.size > 1:
+        error = comm.bcast(error)
+    if error is not None:
+        raise error
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     scheme = scheme_cls.build(scene, mdl, comm, say)
-    parts, layouts, freqs = scheme.parts, scheme.layouts, scheme.freqs
+    parts, layouts, freqs, mdl = scheme.parts, scheme.layouts, scheme.freqs, scheme.model
     lines = []
     for part in parts:
         fr, crit = freqs[part.name]

@@ -42,7 +42,7 @@ def check_reference(scene):
     from solver.driver.monolithic import reference_scene
     rscene = reference_scene(scene)
     mdl = model_mod.build(rscene)
-    layouts = overlap.derive(mdl.neighbours(), rscene.partitions, [0])
+    layouts = overlap.derive(mdl.graph(), rscene.partitions, [0])
     _, problems = check_stability(rscene, mdl, layouts, [0])
     if problems:
         raise StabilityError(f"reference.dt: {problems[0]}")
@@ -67,7 +67,15 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         raise SceneError(problem)
     saved = state.read(restart, scene, comm) if restart else None
     if getattr(scene.reference, "kind", "") == "monolithic":
-        check_reference(scene)
+        problem = None
+        if rank == 0:
+            try:
+                check_reference(scene)
+            except StabilityError as e:
+                problem = e
+        problem = comm.bcast(problem)
+        if problem:
+            raise problem
     asm = build(scene, comm, say)
     mdl, parts, scheme = asm.model, asm.parts, asm.scheme
     n_sys, Dt = scene.n_system_steps, scene.system_dt

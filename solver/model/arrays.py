@@ -7,12 +7,14 @@ node ``n`` has index ``dofmap.offsets[n] + c`` in every model vector.  Springs a
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
 from solver.model.dofmap import DofMap
+from solver.model.graph import Graph
 from solver.model.loads import LoadFunction, load_function
 from solver.scene import Scene
 
@@ -64,15 +66,19 @@ class Model:
     def n_dofs(self) -> int:
         return self.dofmap.n_dofs
 
-    def neighbours(self) -> list[np.ndarray]:
+    def graph(self) -> Graph:
         """Adjacent nodes of every node (ground excluded)."""
         free = (self.spring_i >= 0) & (self.spring_j >= 0)
-        a = np.concatenate([self.spring_i[free], self.spring_j[free]])
-        b = np.concatenate([self.spring_j[free], self.spring_i[free]])
-        order = np.argsort(a, kind="stable")
-        a, b = a[order], b[order]
-        cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
-        return [np.unique(b[cuts[n]:cuts[n + 1]]) for n in range(self.n_nodes)]
+        return Graph.from_pairs(self.n_nodes, self.spring_i[free], self.spring_j[free])
+
+    def share(self, nodes) -> "Model":
+        """This model with only the springs that touch ``nodes`` (what a rank
+        holding those nodes assembles)."""
+        inh = np.zeros(self.n_nodes + 1, bool)           # slot -1: the ground
+        inh[nodes] = True
+        keep = inh[self.spring_i] | inh[self.spring_j]
+        return dataclasses.replace(self, spring_i=self.spring_i[keep], spring_j=self.spring_j[keep],
+                                   spring_k=self.spring_k[keep])
 
     def springs_within(self, held: np.ndarray):
         """Springs whose both ends are in ``held`` (ground counts as held), as

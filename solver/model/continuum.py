@@ -9,6 +9,7 @@ q [N/m] on a 2D edge, a pressure-like load [N/m^2] on a 3D face).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -19,6 +20,7 @@ from solver.partitions.assembly import group_matrices, nodal
 from solver.model.loads import load_function
 from solver.model.arrays import PointLoad
 from solver.model.dofmap import DofMap
+from solver.model.graph import Graph
 
 
 @dataclass(frozen=True)
@@ -51,6 +53,29 @@ class ContinuumArrays:
         inh[held] = True
         return inh
 
+    def share(self, nodes) -> "ContinuumArrays":
+        """This model with only the cells and bonds that touch ``nodes``: what a
+        rank holding those nodes assembles (node arrays keep global ids)."""
+        inh = self._held(nodes)
+
+        def touching(cells):
+            out = []
+            for fam, conn, Ke in cells:
+                keep = inh[conn].any(axis=1)
+                if hasattr(Ke, "subset"):
+                    Ke = Ke.subset(keep)
+                    out.append((fam, Ke.conn, Ke))
+                else:
+                    out.append((fam, conn[keep], Ke[keep]))
+            return out
+        bonds = self.bonds
+        if bonds:
+            bi, bj, k = bonds
+            keep = inh[bi] | inh[bj]
+            bonds = (bi[keep], bj[keep], k[keep])
+        return dataclasses.replace(self, cells=touching(self.cells),
+                                   overlap_cells=touching(self.overlap_cells), bonds=bonds)
+
     def _cell_blocks(self, cells, held) -> list:
         inh = self._held(held)
         out = []
@@ -78,10 +103,10 @@ class ContinuumArrays:
             out.append((conn, BondStiffness(self.points, conn, k[keep])))
         return out + self._cell_blocks(self.overlap_cells, held)
 
-    def neighbours(self) -> list[np.ndarray]:
-        """Adjacent nodes of every node (through cells or bonds), sorted.  Edge
-        keys a * n + b are made and reduced in chunks of cells, so the
-        temporaries stay small on large meshes."""
+    def graph(self) -> Graph:
+        """Adjacent nodes of every node (through cells or bonds).  Edge keys
+        a * n + b are made and reduced in chunks of cells, so the temporaries
+        stay small on large meshes."""
         n = np.int64(self.n_nodes)
         keys = []
         for _, conn, _ in self.cells:
@@ -95,9 +120,7 @@ class ContinuumArrays:
             bi, bj, _ = self.bonds
             keys.append(np.concatenate([bi * n + bj, bj * n + bi]))
         key = np.unique(np.concatenate(keys)) if keys else np.zeros(0, dtype=np.int64)
-        a, b = key // n, key % n
-        cuts = np.searchsorted(a, np.arange(self.n_nodes + 1))
-        return np.split(b, cuts[1:-1])
+        return Graph.from_keys(self.n_nodes, key)
 
 
 class BondStiffness:

@@ -18,7 +18,7 @@ import numpy as np
 
 from solver.petscutil import init
 
-CHUNK = 8192          # elements per insertion call (bounds the temporaries)
+CHUNK = 2048          # elements per insertion call (bounds the temporaries)
 
 
 class CellStiffness:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver.coupling.overlap import Layout, csr
+from solver.coupling.overlap import Layout
 
 
 @dataclass(frozen=True)
@@ -53,21 +53,16 @@ def whole(layout: Layout, n_nodes: int) -> Distribution:
     return Distribution(layout, (piece,), number)
 
 
-def rcm(nodes: np.ndarray, neighbours) -> np.ndarray:
-    """``nodes`` in reverse Cuthill-McKee order of the graph they induce."""
+def rcm(nodes: np.ndarray, graph) -> np.ndarray:
+    """``nodes`` in reverse Cuthill-McKee order of the subgraph they induce."""
     from solver.petscutil import init
     n = nodes.size
     if n <= 2:
         return nodes.copy()
     P = init()
-    local = np.full(len(neighbours), -1, dtype=np.int64)
-    local[nodes] = np.arange(n)
-    indptr, cols = csr([neighbours[g] for g in nodes.tolist()])
-    r = np.repeat(np.arange(n), np.diff(indptr))
-    c = local[cols]
-    inside = c >= 0
-    r = np.concatenate([np.arange(n), r[inside]])
-    c = np.concatenate([np.arange(n), c[inside]])
+    r, c = graph.induced(nodes)
+    r = np.concatenate([np.arange(n), r])
+    c = np.concatenate([np.arange(n), c])
     G = P.Mat().createAIJ((n, n), comm=P.COMM_SELF)
     G.setPreallocationCOO(r.astype(P.IntType), c.astype(P.IntType))
     G.setValuesCOO(np.ones(r.size))
@@ -79,13 +74,14 @@ def rcm(nodes: np.ndarray, neighbours) -> np.ndarray:
     return nodes[order]
 
 
-def split(layout: Layout, neighbours, k: int, order=True) -> Distribution:
-    """Distribute ``layout`` over ``k`` ranks (k = 1: one piece, RCM order)."""
-    owned = rcm(layout.owned, neighbours) if order else layout.owned
+def split(layout: Layout, graph, k: int, order=True) -> Distribution:
+    """Distribute ``layout`` over ``k`` ranks (k = 1: one piece, RCM order) by
+    the node ``graph``."""
+    owned = rcm(layout.owned, graph) if order else layout.owned
     n = owned.size
     sizes = [n // k + (1 if r < n % k else 0) for r in range(k)]
     cuts = np.concatenate([[0], np.cumsum(sizes)])
-    n_nodes = len(neighbours)
+    n_nodes = graph.n_nodes
     piece_of = np.full(n_nodes, -1, dtype=np.int64)
     piece_of[owned] = np.repeat(np.arange(k), sizes)
     ext_piece = []
@@ -93,7 +89,7 @@ def split(layout: Layout, neighbours, k: int, order=True) -> Distribution:
         # the lowest piece among a node's neighbours already placed (owned or earlier layers)
         placed = np.zeros(layer.size, dtype=np.int64)
         for i, g in enumerate(layer.tolist()):
-            prev = piece_of[neighbours[g]]
+            prev = piece_of[graph.row(g)]
             prev = prev[prev >= 0]
             placed[i] = prev.min() if prev.size else 0
         piece_of[layer] = placed             # a layer's nodes place the next layer's

@@ -2,7 +2,7 @@
 
 ``build_partitions`` takes the model and the scheme's external-data
 treatments and returns everything a coupling scheme needs to run on this
-rank: the partition layouts (global), the rank assignment, every partition's
+rank (rank 0 plans from the node graph and sends each rank its share): the partition layouts (global), the rank assignment, every partition's
 distribution over its ranks, this rank's partition pieces, and every
 partition's frequency and critical step.  Unstable steps are refused here,
 before stepping.
@@ -17,10 +17,9 @@ from solver.partitions import distribute
 from solver.coupling import overlap
 from solver.partitions import ranks
 from solver.partitions import stability
-from solver.coupling.overlap import csr
 from solver.model.dofmap import ranges
 from solver.partitions.dem import DemPartition
-from solver.errors import StabilityError
+from solver.errors import SolverError, StabilityError
 from solver.partitions.fem import FemPartition
 
 PARTITION_TYPES = {"fem": FemPartition, "dem": DemPartition}
@@ -33,40 +32,85 @@ class Partitions:
     dists: list              # every partition's Distribution
     parts: list              # this rank's pieces, ascending partition order
     freqs: dict              # name -> (Frequency, critical step)
+    model: object            # this rank's share of the model (rank 0: all of it)
 
 
-def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
-    rank, size = comm.rank, comm.size
+@dataclass
+class Plan:
+    """What rank 0 decides for everyone: small arrays sent to every rank."""
+    layouts: list
+    assignment: object
+    dists: list
+    freqs: dict              # dense stability of the partitions small enough for it
+    problems: list
+
+
+def plan(scene, mdl, size, treatments):
+    """On one rank, with the whole model: the node graph, every partition's
+    layout, the rank assignment, every partition's distribution over its
+    ranks, the dense stability check, and for every rank its share: the graph
+    rows of the nodes it holds (its preallocation) and the model's cells and
+    bonds that touch them.  Returns (Plan, [(graph rows, model share)] per rank)."""
     R = scene.system_ratio
-    neighbours = mdl.neighbours()
-    graph = csr(neighbours)
-    layouts = overlap.derive(neighbours, scene.partitions,
+    graph = mdl.graph()
+    layouts = overlap.derive(graph, scene.partitions,
                              overlap.layer_counts(scene.partitions, treatments))
     costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
              for lay, p in zip(layouts, scene.partitions)]
     assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts],
                               [p.ranks for p in scene.partitions])
+    dists = [distribute.split(lay, graph, len(assignment.ranks[p]))
+             for p, lay in enumerate(layouts)]
+    freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
+    shares = [(graph, mdl)]                  # rank 0 keeps the whole model (it writes fields)
+    for r in range(1, size):
+        held = [dists[p].pieces[assignment.ranks[p].index(r)].held
+                for p in assignment.partitions_on(r)]
+        held = np.concatenate(held) if held else np.zeros(0, np.int64)
+        shares.append((graph.restrict(held), mdl.share(held)))
+    return Plan(layouts, assignment, dists, freqs, problems), shares
+
+
+def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
+    """Rank 0 plans with the whole model (``mdl``; other ranks pass None); every
+    rank gets the plan's small arrays and only its share of the graph and the
+    model, then builds its pieces."""
+    rank, size = comm.rank, comm.size
+    R = scene.system_ratio
+    decided, shares, error = None, None, None
+    if rank == 0:
+        try:
+            decided, shares = plan(scene, mdl, size, treatments)
+        except SolverError as e:
+            error = e
+    if size > 1:
+        error = comm.bcast(error)
+    if error is not None:
+        raise error
+    if size > 1:
+        decided = comm.bcast(decided)
+        graph, mdl = comm.scatter(shares)
+        del shares
+    else:
+        (graph, mdl), = shares
+    layouts, assignment, dists, freqs = (decided.layouts, decided.assignment, decided.dists,
+                                         dict(decided.freqs))
     for line in assignment.lines([p.name for p in scene.partitions]):
         say(line)
-    local_ids = assignment.partitions_on(rank)
-    # each partition's dense bound once, on its first rank
-    freqs, problems = check_stability(scene, mdl, layouts,
-                                      [p for p in local_ids if assignment.ranks[p][0] == rank])
-    for chunk in comm.allgather(freqs):
-        freqs.update(chunk)
-    refuse(scene, sum(comm.allgather(problems), []), say)
+    refuse(scene, decided.problems, say)
     comms = ranks.communicators(comm, assignment)
-    dists = [distribute.split(lay, neighbours, len(assignment.ranks[p]))
-             for p, lay in enumerate(layouts)]
     parts = []
-    for p in local_ids:
+    for p in assignment.partitions_on(rank):
         piece = dists[p].pieces[assignment.ranks[p].index(rank)]
         parts.append(PARTITION_TYPES[scene.partitions[p].method](
             scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
             scene.damping, dist=dists[p], graph=graph))
+    for part in parts:
+        part.graph = None            # preallocation done: the graph rows are not kept
+    del graph
     check_large(scene, parts, freqs, comm, say)
     refuse(scene, [], say, freqs)
-    return Partitions(layouts, assignment, dists, parts, freqs)
+    return Partitions(layouts, assignment, dists, parts, freqs, mdl)
 
 
 def check_stability(scene, mdl, layouts, ids):

@@ -100,6 +100,23 @@ def print_schemes():
         print(f"  {scheme}: {text}")
 
 
+def load_on_root(comm, path, overrides):
+    """Rank 0 reads the scene and its mesh or network and binds them; the other
+    ranks receive the bound scene (they never read the mesh)."""
+    from solver import scene as scene_mod
+    scene, error = None, None
+    if comm.rank == 0:
+        try:
+            scene = scene_mod.load(path, overrides)
+        except SolverError as e:
+            error = e
+    if comm.size > 1:
+        scene, error = comm.bcast((scene, error))
+    if error is not None:
+        raise error
+    return scene
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
@@ -123,10 +140,7 @@ def main(argv=None) -> int:
         comm = MPI.COMM_WORLD
         rank = comm.rank
         check_launch(comm)
-        from solver.model import mesh
-        mesh.read_on(comm)                  # rank 0 meshes/reads, the others receive
-        from solver import scene as scene_mod
-        scene = scene_mod.load(path, overrides)
+        scene = load_on_root(comm, path, overrides)
         from solver.petscutil import init
         init(petsc_args)
         from solver.driver.runner import run, summary

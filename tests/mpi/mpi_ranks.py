@@ -128,3 +128,63 @@ def test_mixed_dof_counts_split_over_ranks():
         a, b = serial[key], parallel[key]
         assert np.abs(a - b).max() <= 1e-12 * max(np.abs(a).max(), 1e-30), key
     WORLD.barrier()
+
+
+def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
+    """The command line's path: rank 0 loads and binds the scene (the mesh is
+    read on rank 0 only); every other rank receives the cells that touch its
+    nodes, never the whole mesh."""
+    from solver.driver.build import build
+    from solver.model import data as model_data
+    from solver.tools.cli import load_on_root
+    from conftest import write_scene
+    raw = raw_scene("wave_bar_fem")
+    raw["name"] = "share"
+    path = shared_tmp / "share.yaml"
+    if WORLD.rank == 0:
+        write_scene(path, raw)
+    WORLD.barrier()
+    model_data._cache.clear()
+    scene = load_on_root(WORLD, path, [])
+    assert (len(model_data._cache) == 1) == (WORLD.rank == 0)
+    asm = build(scene, WORLD)
+    counts = WORLD.allgather(sum(len(conn) for _, conn, _ in asm.model.cells))
+    held = np.concatenate([p.layout.held for p in asm.parts])
+    inh = np.zeros(asm.model.n_nodes, bool)
+    inh[held] = True
+    whole = counts[0]
+    if WORLD.rank > 0:
+        # exactly the cells touching the rank's held nodes
+        assert all(inh[conn].any(axis=1).all() for _, conn, _ in asm.model.cells)
+        assert counts[WORLD.rank] < whole
+    else:
+        assert whole == sum(len(c) for c in scene_cells(scene))
+    asm.destroy()
+    WORLD.barrier()
+
+
+def scene_cells(scene):
+    from solver.model import data as model_data
+    mesh = model_data.read(scene.model)
+    return list(mesh.group(scene.model.body).cells.values())
+
+
+def test_errors_found_on_rank0_stop_every_rank(shared_tmp):
+    from solver.errors import LaunchError, SceneError
+    from solver.driver.build import build
+    from solver.scene import from_dict
+    from solver.tools.cli import load_on_root
+    from conftest import write_scene
+    raw = raw_scene("wave_bar_fem")
+    raw["model"]["fixed"] = ["nowhere"]
+    path = shared_tmp / "bad.yaml"
+    if WORLD.rank == 0:
+        write_scene(path, raw)
+    WORLD.barrier()
+    with pytest.raises(SceneError, match="model.fixed: mesh has no physical group 'nowhere'"):
+        load_on_root(WORLD, path, [])
+    raw = raw_scene("six_dof")
+    raw["partitions"][0]["ranks"] = WORLD.size + 1        # planned on rank 0: more than the run has
+    with pytest.raises(LaunchError, match="ranks"):
+        build(from_dict(raw), WORLD)
+    WORLD.barrier()
