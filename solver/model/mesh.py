@@ -1,7 +1,9 @@
 """Meshes from gmsh: a .geo meshed through the gmsh API, or a .msh read by it.
 
-Read on rank 0 and broadcast (``read(path, comm)``; the command line reads
-every scene's mesh this way, see ``READER``).  Scenes name physical
+``read(path, comm)`` reads on rank 0 of ``comm`` and broadcasts; scripts that
+load a scene on every rank in step can ask for that with :func:`read_on`.
+The command line instead loads the scene on rank 0 alone and broadcasts the
+bound scene, so the other ranks never hold the mesh.  Scenes name physical
 groups, not tags: ``Mesh.group(name)`` returns a group or raises a one-line
 error that lists the groups the mesh has.  Cells of the top dimension are
 kept per family (tri3, quad4, tet4, hex8); lower-dimensional groups keep their
@@ -92,9 +94,8 @@ def _read_gmsh(path: str, dim: int | None, parameters: dict) -> Mesh:
 
 
 # The communicator scenes read their meshes on (None: every process reads its own).
-# The command line sets COMM_WORLD, where every rank loads the scene in step, so
-# rank 0 meshes or reads the file once and broadcasts it; scripts keep None
-# unless they load scenes on every rank in step (:func:`read_on`).
+# Scripts that load scenes on every rank in step may set it (:func:`read_on`), so
+# rank 0 meshes or reads the file once and broadcasts it.
 READER = None
 
 
