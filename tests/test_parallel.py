@@ -88,3 +88,26 @@ def test_ranks_that_do_not_add_up_are_refused(tmp_path):
                                    "partitions[1].ranks = 2) but 3 ranks were launched; run with "
                                    "-n 4 or change them")
     assert not (tmp_path / "o.h5").exists()
+
+
+def test_wait_for_the_slower_rank_is_measured_apart(tmp_path):
+    """-exchange_measure_wait: a barrier before each exchange; the rank of the
+    cheap partition waits for the expensive one about their difference."""
+    raw = raw_scene("wave_bar")
+    raw["time"]["end"] = 2.0e-5
+    raw["reference"] = "none"
+    raw["output"] = {"file": str(tmp_path / "w.h5"), "progress": 0}
+    proc = run_cli([write_scene(tmp_path / "w.yaml", raw), "-exchange_measure_wait"], n=2)
+    assert proc.returncode == 0, proc.stderr
+    assert "waiting for the other ranks before it" in proc.stdout
+    with h5py.File(tmp_path / "w.h5") as f:
+        wait = f.attrs["exchange_wait_time_per_rank"]
+        xch = f.attrs["exchange_wall_time_per_rank"]
+        walls = {name: g.attrs["wall_time"] for name, g in f["partitions"].items()}
+        stepping = f.attrs["stepping_wall_time"]
+    assert wait.shape == xch.shape == (2,)
+    heavy, light = max(walls.values()), min(walls.values())
+    assert heavy > 3 * light                       # the fem partition holds most of the bar
+    # the light partition's rank waits for most of the difference; the other hardly
+    assert wait.max() >= 0.5 * (heavy - light) and wait.min() <= 0.25 * wait.max()
+    assert (wait + xch).max() <= stepping

@@ -1,11 +1,15 @@
 """The overlap exchange: external copies <- owners' (u, v, a).
 
-All owned states live in one global PETSc Vec laid out piece by piece (a
-piece is a partition's share on one rank, :mod:`solver.partitions.distribute`) as
-[u | v | a] blocks; every rank scatters the entries its receiving pieces
-hold as external into one local Vec with a single VecScatter, whatever the
-rank layout: on one rank a local gather, on several ranks each piece sends
-its boundary to the pieces that hold it as external.  The concurrent scheme
+The owned nodes that some partition holds as external (the *sent* nodes: the
+partitions' boundaries, and the layers behind them under the ``layers``
+treatment) live in one global PETSc Vec laid out piece by piece (a piece is a
+partition's share on one rank, :mod:`solver.partitions.distribute`) as
+[u | v | a] blocks; every rank scatters the entries its receiving pieces hold
+as external into one local Vec with a single VecScatter, whatever the rank
+layout: on one rank a local gather, on several ranks each piece sends its
+boundary to the pieces that hold it as external.  Only the sent nodes are
+copied, so an exchange costs in proportion to the interfaces, not to the
+partitions.  The concurrent scheme
 refreshes every partition's externals at once; the staggered scheme uses one
 exchange per direction (``receivers``).  Ghosts *within* a partition are not
 exchanged here: the partition's parallel matrix refreshes them at every MatMult.
@@ -31,29 +35,38 @@ class Exchange:
         P = init()
         n_nodes = dists[0].number.size
         counts = dofmap.counts
-        # the global Vec: every rank's pieces in rank order, each [u | v | a] of its owned DOFs
+        wanted = np.zeros(n_nodes, bool)                  # nodes some receiver holds as external
+        for q, dist in enumerate(dists):
+            if receivers is None or q in receivers:
+                wanted[dist.layout.external] = True
+        # the global Vec: every rank's pieces in rank order, each [u | v | a] of its sent DOFs
         g_base = np.full(n_nodes, -1, dtype=np.int64)     # owner piece's block start
-        g_stride = np.zeros(n_nodes, dtype=np.int64)      # its owned DOFs (one field)
-        g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's first DOF in its owned list
+        g_stride = np.zeros(n_nodes, dtype=np.int64)      # its sent DOFs (one field)
+        g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's first DOF in its sent list
         at, local_size = 0, 0
         for r in range(comm.size):
             for p in ranks.partitions_on(r):
-                piece = dists[p].pieces[ranks.ranks[p].index(r)]
-                own = piece.owned
-                n_own = dofmap.count(own)
-                g_base[own] = at
-                g_stride[own] = n_own
-                g_pos[own] = dofmap.starts(own)
-                at += 3 * n_own
+                own = dists[p].pieces[ranks.ranks[p].index(r)].owned
+                sent = own[wanted[own]]
+                n_sent = dofmap.count(sent)
+                g_base[sent] = at
+                g_stride[sent] = n_sent
+                g_pos[sent] = dofmap.starts(sent)
+                at += 3 * n_sent
                 if r == comm.rank:
-                    local_size += 3 * n_own
+                    local_size += 3 * n_sent
         self.G_arr = np.zeros(local_size)
         self.G = vec_on(self.G_arr, comm, size=(local_size, at))
         self._send, g_at = [], 0
         for p in parts:
-            g_view = self.G_arr[g_at:g_at + 3 * p.n_own].reshape(3, p.n_own)
-            self._send.append((p.state[:, :p.n_own], g_view))
-            g_at += 3 * p.n_own
+            own = p.layout.owned
+            at_node = np.flatnonzero(wanted[own])           # owned come first in held order
+            if not at_node.size:
+                continue
+            idx = ranges(p.starts[at_node], counts[own[at_node]])
+            g_view = self.G_arr[g_at:g_at + 3 * idx.size].reshape(3, idx.size)
+            self._send.append((p.state, idx, g_view))
+            g_at += 3 * idx.size
         src, dst, blocks, x_at = [], [], [], 0
         for p in parts:
             if receivers is not None and p.layout.index not in receivers:
@@ -83,8 +96,8 @@ class Exchange:
         self._forward = P.ScatterMode.FORWARD
 
     def __call__(self):
-        for owned, g_view in self._send:
-            np.copyto(g_view, owned)
+        for state, idx, g_view in self._send:
+            np.take(state, idx, axis=1, out=g_view)
         self.scatter.scatter(self.G, self.X, self._insert, self._forward)
         for x_view, external in self._receive:
             np.copyto(external, x_view)

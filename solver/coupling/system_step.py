@@ -25,15 +25,26 @@ from solver.petscutil import Stage, init
 
 class _Clocks:
     """Wall time of partitions and exchanges, and PETSc logging stages (one per
-    partition, one for the exchange) when PETSc logging is on (-log_view)."""
+    partition, one for the exchange) when PETSc logging is on (-log_view).
 
-    def __init__(self, parts, names=None):
+    With the option ``-exchange_measure_wait`` every exchange is preceded by a
+    barrier on ``comm``: the time in the barrier is the wait for the slowest
+    rank (``wait_wall``), the rest the exchange itself (``exchange_wall``).
+    Without it, ``exchange_wall`` includes the wait."""
+
+    def __init__(self, parts, names=None, comm=None):
         # every rank registers every partition's stage in the same order (PETSc
         # matches stages across ranks by registration order), then the exchange
         self._stages = {n: Stage(n) for n in (names or [p.name for p in parts])}
         self._stage_x = Stage("exchange")
         self.exchange_wall = 0.0
-        self.logging = init().Log.isActive()
+        self.wait_wall = None
+        P = init()
+        self.logging = P.Log.isActive()
+        measure = P.Options().getBool("exchange_measure_wait", False)
+        if measure and comm is not None and comm.size > 1:
+            self.wait_wall, self._barrier = 0.0, comm.Barrier
+            self._exchange = self._exchange_after_barrier
         if not self.logging:
             self.part, self.exchange = self._part, self._exchange
 
@@ -58,6 +69,14 @@ class _Clocks:
         exchange()
         self.exchange_wall += _clock() - c0
 
+    def _exchange_after_barrier(self, exchange):
+        c0 = _clock()
+        self._barrier()
+        c1 = _clock()
+        exchange()
+        self.wait_wall += c1 - c0
+        self.exchange_wall += _clock() - c1
+
 
 class ConcurrentOverlap:
     name = "overlap"
@@ -80,7 +99,7 @@ class ConcurrentOverlap:
         need = any(d.layout.layers for d in dists)
         self.exchange = Exchange(comm, dists, ranks, parts, dofmap) if need else None
         self.exchanges = [self.exchange] if need else []
-        self.clocks = _Clocks(parts, [p.name for p in scene.partitions])
+        self.clocks = _Clocks(parts, [p.name for p in scene.partitions], comm)
 
     def describe(self) -> str:
         return "concurrent overlap scheme (seed 000): advance all partitions, then exchange"
@@ -95,7 +114,7 @@ class ConcurrentOverlap:
     def step(self, t0: float):
         """One system step from time ``t0``."""
         clocks = self.clocks
-        if clocks.logging:
+        if clocks.logging or clocks.wait_wall is not None:
             for part in self.parts:
                 clocks.part(part, part.advance, t0)
             if self.exchange:
@@ -130,7 +149,7 @@ class Staggered(ConcurrentOverlap):
         self.to_explicit = Exchange(comm, dists, ranks, parts, dofmap, receivers={1 - i})
         self.exchanges = [self.to_implicit, self.to_explicit]
         self.exchange = None
-        self.clocks = _Clocks(parts, [p.name for p in scene.partitions])
+        self.clocks = _Clocks(parts, [p.name for p in scene.partitions], comm)
 
     def describe(self) -> str:
         return ("staggered scheme (seed 002): explicit sub-cycle, then the implicit solve with "

@@ -214,6 +214,7 @@ class Report:
                  "peak_rss_mb_per_rank": np.array(comm.allgather(peak_rss_mb())),
                  "exchange_wall_time": max(comm.allgather(x_wall)),
                  "exchange_wall_time_per_rank": np.array(comm.allgather(x_wall)),
+                 **wait_attrs(self.asm.scheme.clocks, comm),
                  "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
                  "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
                  "t_end": done * Dt, "reference": reference_label(scene),
@@ -315,6 +316,19 @@ def vector_error(x, ref) -> float:
     return float(np.mean(np.linalg.norm(x - ref, axis=0)[ok] / norm[ok]))
 
 
+def wait_attrs(clocks, comm) -> dict:
+    """``exchange_wait_time_per_rank`` when the run measured it (-exchange_measure_wait)."""
+    wait = getattr(clocks, "wait_wall", None)
+    waits = comm.allgather(wait)
+    if any(w is None for w in waits):
+        return {}
+    return {"exchange_wait_time_per_rank": np.array(waits)}
+
+
+def _seconds(values) -> str:
+    return " / ".join(f"{v:.3g}" for v in values) + " s"
+
+
 def summary(result, output_file) -> list[str]:
     a = result.attrs
     parts = ", ".join(f"{n} {p['steps']} x {p['dt']:.3g} s ({p['wall_time']:.3g} s)"
@@ -324,6 +338,9 @@ def summary(result, output_file) -> list[str]:
              f"(set-up {a['setup_wall_time']:.3g} s, stepping {a['stepping_wall_time']:.3g} s, "
              f"exchange {a['exchange_wall_time']:.3g} s); peak memory per rank "
              f"{a['peak_rss_mb_per_rank'].max():.0f} MB",
+             *([f"[solver]   exchange per rank {_seconds(a['exchange_wall_time_per_rank'])}, "
+                f"waiting for the other ranks before it {_seconds(a['exchange_wait_time_per_rank'])}"]
+               if "exchange_wait_time_per_rank" in a else []),
              f"[solver]   partitions: {parts}"]
     if "vector_rel_error" in a:
         lines.append(f"[solver]   all probes as one vector (seed 002 eq. 9, mean over samples): "

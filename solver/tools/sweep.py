@@ -36,9 +36,9 @@ def mpiexec() -> str:
     return os.environ.get("MTS_MPIEXEC") or shutil.which("mpiexec.mpich") or shutil.which("mpiexec")
 
 
-def run_one(scene_path, n, sets, out_file):
+def run_one(scene_path, n, sets, out_file, petsc_options=()):
     cmd = [sys.executable, "-m", "solver", scene_path, *sum((["--set", s] for s in sets), []),
-           "--set", f"output.file={out_file}", "--set", "output.progress=0"]
+           "--set", f"output.file={out_file}", "--set", "output.progress=0", *petsc_options]
     if n > 1:
         cmd = [mpiexec(), "-n", str(n), *cmd]
     proc = subprocess.run(cmd, capture_output=True, text=True)
