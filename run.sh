@@ -20,6 +20,15 @@ PY="$VENV/bin/python"
 
 log() { echo "[run.sh] $*" >&2; }
 
+# -n N first: a rank count that is not a whole number >= 1 is refused before anything runs
+nproc_arg=()
+if [ "${1:-}" = "-n" ] || [ "${1:-}" = "-np" ]; then
+  if ! [[ "${2:-}" =~ ^[1-9][0-9]*$ ]]; then
+    echo "error: ${1} needs a whole number of ranks >= 1, got '${2:-}'" >&2; exit 4
+  fi
+  nproc_arg=(-n "$2"); shift 2
+fi
+
 ensure_system() {
   # System MPI (MPICH) and BLAS/LAPACK; compilers are needed to build PETSc.
   if command -v mpicc.mpich >/dev/null 2>&1 && [ -e /usr/lib/x86_64-linux-gnu/libopenblas.so ]; then
@@ -47,7 +56,8 @@ python_ok() {
 ensure_python() {
   local stamp="$VENV/.requirements.sha"
   local want; want="$(cat requirements.txt requirements-petsc.txt | sha256sum | cut -d' ' -f1)"
-  if [ -x "$PY" ] && [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && python_ok "$PY"; then
+  # the stamp is written only after the imports were checked: trust it (no imports here)
+  if [ -x "$PY" ] && [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ]; then
     return
   fi
   local t0=$SECONDS
@@ -71,6 +81,7 @@ ensure_python() {
     "$PY" -m pip install -q -r requirements.txt
   fi
   python_ok "$PY" || { log "installation finished but petsc4py/mpi4py or the wheels do not import"; exit 1; }
+  rm -f "$VENV/.mpiexec"
   echo "$want" > "$stamp"
   log "Python environment ready in $((SECONDS - t0)) s"
 }
@@ -87,14 +98,18 @@ mpiexec_for() {
 }
 
 ensure_python
-MPIEXEC="$(mpiexec_for)"
+# the launcher, found once per environment (asking mpi4py costs a Python start)
+if [ -s "$VENV/.mpiexec" ] && [ -x "$(cat "$VENV/.mpiexec")" ]; then
+  MPIEXEC="$(cat "$VENV/.mpiexec")"
+else
+  MPIEXEC="$(mpiexec_for)"
+  echo "$MPIEXEC" > "$VENV/.mpiexec"
+fi
 export MTS_MPIEXEC="$MPIEXEC"
 export MPLBACKEND=Agg
 export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"   # one BLAS thread per MPI rank
 export PYTHONPATH="$here${PYTHONPATH:+:$PYTHONPATH}"
 
-nproc_arg=()
-if [ "${1:-}" = "-n" ]; then nproc_arg=(-n "$2"); shift 2; fi
 
 case "${1:-}" in
   test)

@@ -237,3 +237,67 @@ def test_continuum_scene_with_a_monolithic_reference(tmp_path):
         assert np.abs(ref).max() > 0
         assert at["rms_rel_error"] < 0.05, (probe, at)
     assert list((tmp_path / ".reference-cache").glob("*.npz"))
+
+
+@pytest.mark.parametrize("name", ["wave_bar_3d", "wave_bar_fem"])
+def test_xdmf_stress_is_read_by_vtk_as_the_tensor_it_is(name, tmp_path):
+    """A uniform strain written as fields and read back with VTK's XDMF reader
+    (what ParaView uses): the 3x3 stress VTK builds from Tensor6 equals
+    lambda tr(eps) I + 2 mu eps (3D) or the plane-stress tensor (2D, zz = 0)."""
+    from mpi4py import MPI
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXdmf2 import vtkXdmfReader
+    from solver.driver.build import build
+    from solver.driver.fields import FieldWriter
+    from solver.scene import from_dict
+    raw = raw_scene(name)
+    raw["reference"] = "none"
+    raw["output"] = {"file": str(tmp_path / "u.h5"), "fields": {"every": 1}}
+    scene = from_dict(raw)
+    asm = build(scene, MPI.COMM_SELF)
+    d = asm.model.dof
+    eps = 1e-4 * np.array([[1.0, 0.2, 0.3], [0.2, 2.0, 0.5], [0.3, 0.5, 3.0]])[:d, :d]
+    for part in asm.parts:
+        part.U[:] = (asm.model.points[part.layout.held] @ eps.T).ravel()
+    writer = FieldWriter(scene, asm.model, asm.parts, MPI.COMM_SELF)
+    writer.write(0.0)
+    writer.close()
+    asm.destroy()
+    reader = vtkXdmfReader()
+    reader.SetFileName(str(tmp_path / "u_fields.xdmf"))
+    reader.Update()
+    stress = vtk_to_numpy(reader.GetOutputDataObject(0).GetBlock(0).GetCellData().GetArray("stress"))
+    E, nu = scene.model.material.E, scene.model.material.nu
+    if d == 3:
+        lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+        sigma = lam * np.trace(eps) * np.eye(3) + 2 * mu * eps
+    else:
+        c = E / (1 - nu * nu)
+        sigma = np.zeros((3, 3))
+        sigma[0, 0] = c * (eps[0, 0] + nu * eps[1, 1])
+        sigma[1, 1] = c * (eps[1, 1] + nu * eps[0, 0])
+        sigma[0, 1] = sigma[1, 0] = E / (1 + nu) * eps[0, 1]
+    assert stress.shape[1] == 9
+    assert np.allclose(stress, sigma.ravel(), rtol=1e-9, atol=1e-6 * np.abs(sigma).max())
+
+
+def test_probe_points_snap_to_body_nodes_and_say_where(tmp_path):
+    import h5py
+    raw = raw_scene("wave_bar_fem")
+    raw["time"]["end"] = 2e-7
+    raw["reference"] = "none"
+    raw["probes"] = [{"name": "A", "at": [0.0781, 0.0011]}]
+    raw["output"] = {"file": str(tmp_path / "p.h5"), "progress": 0}
+    proc = run_cli([write_scene(tmp_path / "p.yaml", raw)])
+    assert proc.returncode == 0, proc.stderr
+    line = next(l for l in proc.stdout.splitlines() if "probe A: at" in l)
+    with h5py.File(tmp_path / "p.h5") as f:
+        at = f["probes/A"].attrs
+        xyz, d, node = at["coordinates"], at["snap_distance"], at["node"]
+        assert np.allclose(at["at"], [0.0781, 0.0011])
+        assert np.isclose(d, np.linalg.norm(xyz - [0.0781, 0.0011])) and d < 1e-3
+    assert f"node {node}" in line and f"{d:.3g} m away" in line
+    raw["probes"] = [{"name": "far", "at": [0.5, 0.0012]}]      # the bar ends at 0.32 m
+    proc = run_cli([write_scene(tmp_path / "q.yaml", raw)])
+    assert proc.returncode == 2
+    assert "probes[0].at: [0.5, 0.0012] is" in proc.stderr and "outside the body?" in proc.stderr

@@ -46,3 +46,22 @@ def test_modal_solution_satisfies_the_ode(case):
     assert res[far].max() < 2e-5, res[far].max()
     vel = (u[2:] - u[:-2]) / (2 * h)
     assert np.abs(vel - v[1:-1]).max() < 2e-5
+
+
+def test_zero_reference_is_said_not_divided_by(tmp_path):
+    """A probe the wave has not reached: the 1D reference is zero over the run;
+    the summary says so and gives the absolute error (no 1e-315 'relative')."""
+    import h5py
+    from conftest import raw_scene, run_cli, write_scene
+    raw = raw_scene("wave_bar_fem")
+    raw["time"]["end"] = 2.0e-5                        # the pulse front travels 10 cm: A is reached, C not
+    raw["output"] = {"file": str(tmp_path / "z.h5"), "progress": 0}
+    proc = run_cli([write_scene(tmp_path / "z.yaml", raw)])
+    assert proc.returncode == 0, proc.stderr
+    line = next(l for l in proc.stdout.splitlines() if "probe C: the reference" in l)
+    assert "the reference is zero over the run" in line and "max |error|" in line
+    a_line = next(l for l in proc.stdout.splitlines() if "probe A: max" in l)
+    assert "max relative error" in a_line
+    with h5py.File(tmp_path / "z.h5") as f:
+        at = f["probes/C"].attrs
+        assert at["reference_zero"] and np.isnan(at["max_rel_error"]) and at["max_abs_error"] < 1e-9

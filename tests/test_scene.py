@@ -117,7 +117,7 @@ def test_parsing_builds_nothing_binding_reads_the_model(tmp_path, monkeypatch):
     assert all(p.group is None and p.nodes for p in bound.partitions)
     n = model_data.n_nodes(model_data.read(bound.model))
     assert sorted(sum((list(p.nodes) for p in bound.partitions), [])) == list(range(n))
-    assert all(p.at is None and 0 <= p.node < n for p in bound.probes)
+    assert all(p.at is not None and 0 <= p.node < n for p in bound.probes)   # at kept: output says where
     raw["model"]["mesh"] = str(tmp_path / "absent.msh")
     parse(Scene, raw)                                   # still only configuration
     with pytest.raises(SceneError, match="model.mesh: .*absent.msh: mesh file not found"):

@@ -39,6 +39,7 @@ class _Clocks:
         self._stage_x = Stage("exchange")
         self.exchange_wall = 0.0
         self.wait_wall = None
+        self.failures = []          # "partition 'x': message" of partitions that failed
         P = init()
         self.logging = P.Log.isActive()
         measure = P.Options().getBool("exchange_measure_wait", False)
@@ -60,9 +61,24 @@ class _Clocks:
         self._stage_x.pop()
 
     def _part(self, part, fn, *args):
+        if part.failed:
+            return
         c0 = _clock()
-        fn(*args)
+        try:
+            fn(*args)
+        except Exception as e:                  # noqa: BLE001 -- any failure stops the run together
+            self.failed(part, e)
         part.wall += _clock() - c0
+
+    def failed(self, part, error):
+        """Mark ``part`` failed: it stops stepping, the scheme goes on exchanging
+        until the run stops on every rank (:mod:`solver.driver.stop`)."""
+        from solver.driver.stop import describe
+        part.failed = True
+        message = describe(error)
+        if not message.startswith(f"partition '{part.name}'"):
+            message = f"partition '{part.name}': {message}"
+        self.failures.append(message)
 
     def _exchange(self, exchange):
         c0 = _clock()
@@ -122,7 +138,11 @@ class ConcurrentOverlap:
             return
         c0 = _clock()                           # the same without logging stages, inline
         for part in self.parts:
-            part.advance(t0)
+            if not part.failed:
+                try:
+                    part.advance(t0)
+                except Exception as e:          # noqa: BLE001
+                    clocks.failed(part, e)
             c1 = _clock()
             part.wall += c1 - c0
             c0 = c1

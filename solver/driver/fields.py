@@ -2,7 +2,10 @@
 
 ``output.fields: {every: N}`` writes, every N system steps, the body mesh with
 point data displacement and velocity (3 components, z = 0 in 2D) and cell
-data stress (Voigt, from the element strain matrices averaged over the cell)
+data stress (averaged over the cell) as XDMF's ``Tensor6``, the symmetric
+tensor's upper triangle row by row: (xx, xy, xz, yy, yz, zz), which ParaView
+and VTK read; 2D bodies give the 3D tensor (zz = 0 in plane stress,
+nu (xx + yy) in plane strain)
 to ``<output stem>_fields.xdmf``, and the DEM particles (nodes owned by dem partitions) as
 a vertex mesh with the same point data to ``<output stem>_particles.xdmf``.  Both
 share one time axis, so one ParaView session opens them together.  Values are
@@ -27,6 +30,17 @@ def _open(xdmf: str):
 MESHIO_CELLS = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "hexahedron"}
 
 
+def tensor6(voigt: np.ndarray, kind: str, nu: float) -> np.ndarray:
+    """Stress in our Voigt order (3D xx, yy, zz, yz, xz, xy; 2D xx, yy, xy) as
+    XDMF Tensor6 (xx, xy, xz, yy, yz, zz)."""
+    if voigt.shape[1] == 6:
+        return voigt[:, [0, 5, 4, 1, 3, 2]]
+    xx, yy, xy = voigt.T
+    zz = nu * (xx + yy) if kind == "plane_strain" else np.zeros_like(xx)
+    zero = np.zeros_like(xx)
+    return np.stack([xx, xy, zero, yy, zero, zz], axis=1)
+
+
 class FieldWriter:
     def __init__(self, scene, mdl, parts, comm, tag: str = ""):
         from solver.model.elements import _geometry, strain_matrix
@@ -47,7 +61,9 @@ class FieldWriter:
         self.points = points
         self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn, _ in mdl.cells]
         self.stress_ops = []
-        D = scene.model.material.elastic().D()
+        material = scene.model.material
+        self.kind, self.nu = material.kind, material.nu
+        D = material.elastic().D()
         for fam, conn, _ in mdl.cells:               # u_e -> cell-averaged stress
             _, dNdx, _ = _geometry(fam, mdl.points[conn])
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
@@ -77,8 +93,9 @@ class FieldWriter:
                 u[nodes, :self.dim] = uu
                 v[nodes, :self.dim] = vv
         flat = u[:, :self.dim].ravel()
-        stress = [np.einsum("esj,ej->es", op, flat[(conn[:, :, None] * self.dim +
-                                                     np.arange(self.dim)).reshape(len(conn), -1)])
+        stress = [tensor6(np.einsum("esj,ej->es", op, flat[(conn[:, :, None] * self.dim +
+                                                             np.arange(self.dim)).reshape(len(conn), -1)]),
+                          self.kind, self.nu)
                   for conn, op in self.stress_ops]
         self.writers[0].write_data(t, point_data={"displacement": u, "velocity": v},
                                    cell_data={"stress": stress})

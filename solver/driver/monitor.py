@@ -17,10 +17,12 @@ import numpy as np
 
 
 class Probes:
-    def __init__(self, probes, parts, owner, n_steps: int):
+    def __init__(self, probes, parts, owner, n_steps: int, points=None):
         """``parts``: this rank's partition pieces; a probe is recorded by the
-        piece that owns its node (on exactly one rank)."""
+        piece that owns its node (on exactly one rank).  ``points``: node
+        coordinates (continua), written with the histories."""
         self._rec = []
+        self.points = points
         for probe in probes:
             part = next((p for p in parts if p.layout.index == owner[probe.node] and
                          0 <= p.layout.local(np.array([probe.node]))[0] < p.layout.n_owned), None)
@@ -46,10 +48,18 @@ class Probes:
     def histories(self, t_axis, done: int) -> dict:
         """This rank's probes up to system step ``done``."""
         return {probe.name: {"t": t_axis[:done + 1], "displacement": bu[:done + 1],
-                             "velocity": bv[:done + 1],
-                             "attrs": {"node": probe.node, "component": probe.component,
-                                       "partition": part.name}}
+                             "velocity": bv[:done + 1], "attrs": self._attrs(probe, part)}
                 for probe, part, _, _, _, bu, bv in self._rec}
+
+    def _attrs(self, probe, part) -> dict:
+        attrs = {"node": probe.node, "component": probe.component, "partition": part.name}
+        if self.points is not None:
+            xyz = np.asarray(self.points[probe.node], dtype=float)
+            attrs["coordinates"] = xyz                 # where the probe records
+            if probe.at is not None:                   # snapped from the point asked for
+                attrs["at"] = np.asarray(probe.at, dtype=float)[:xyz.size]
+                attrs["snap_distance"] = float(np.linalg.norm(xyz - attrs["at"]))
+        return attrs
 
 
 class EnergyGuard:

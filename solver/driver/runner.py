@@ -81,7 +81,13 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
-    probes = Probes(scene.probes, parts, owner, n_sys)
+    probes = Probes(scene.probes, parts, owner, n_sys, getattr(mdl, "points", None))
+    for probe in scene.probes:
+        if probe.at is not None:
+            xyz = np.asarray(mdl.points[probe.node], dtype=float)
+            gap = np.linalg.norm(xyz - np.asarray(probe.at, dtype=float)[:xyz.size])
+            say(f"[solver]   probe {probe.name}: at {list(probe.at)} -> node {probe.node} at "
+                f"{[float(f'{c:.6g}') for c in xyz]} ({gap:.3g} m away)")
     every = energy_every(scene)
     guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound)
     start = 0
@@ -103,8 +109,9 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "")
         fields.write(start * Dt)
     try:
-        failure, done, loop_wall = step_loop(scene, scheme, probes, guard,
-                                             say if rank == 0 else None, fields, start, checkpoint)
+        failure, done, loop_wall, interrupted = step_loop(
+            scene, scheme, probes, guard, say if rank == 0 else None, fields, start, checkpoint,
+            comm)
     finally:
         if fields:
             fields.close()
@@ -120,7 +127,9 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         output.write(scene.output_file, result, checkpoint=final)
     comm.barrier()
     if failure:
-        raise RunFailed(f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
+        from solver.driver.stop import Interrupted
+        raise (Interrupted if interrupted else RunFailed)(
+            f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
     return result
 
 
@@ -225,36 +234,68 @@ class Report:
         return RunResult(attrs, part_attrs, histories, self.guard.arrays())
 
 
-def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoint=None):
-    """Advance system steps from ``start`` to the end or the first guard failure;
-    ``checkpoint(k, wall)`` every ``checkpoint.every`` system steps.
+def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoint=None,
+              comm=None):
+    """Advance system steps from ``start`` to the end, the first guard failure,
+    a partition's failure or an interrupt on any rank (all ranks stop at the
+    same step, :mod:`solver.driver.stop`); ``checkpoint(k, wall)`` every
+    ``checkpoint.every`` system steps.
 
-    Returns (failure message or None, system steps done, stepping wall time)."""
+    Returns (failure message or None, system steps done, stepping wall time,
+    interrupted)."""
+    from solver.driver.stop import Stopper, describe
     n_sys, Dt = scene.n_system_steps, scene.system_dt
     progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
     every = guard.every
     ck_every = checkpoint.every if checkpoint else 0
     clock = time.perf_counter
     t_loop = last = clock()
-    failure, k = None, start
-    for s in range(start, n_sys):
-        scheme.step(s * Dt)
-        k = s + 1
-        probes.record(k)
-        if fields and k % fields.every == 0:
-            fields.write(k * Dt)
-        if k % every == 0 or k == n_sys:
-            failure = guard.check(k)
+    failure, k, interrupted = None, start, False
+    failures = scheme.clocks.failures
+    with Stopper(comm if comm is not None else _SelfComm(), start) as stop:
+        for s in range(start, n_sys):
+            try:
+                scheme.step(s * Dt)
+            except Exception as e:              # noqa: BLE001 -- stop together, keep the output
+                stop.fail(s + 1, describe(e))
+            k = s + 1
+            if failures:
+                stop.fail(k, failures[0])
+            if stop.due(k) or (ck_every and k % ck_every == 0):
+                ended = stop.poll(k)
+                if ended:
+                    k, failure, interrupted = ended
+                    break
+            failure = _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every,
+                                 clock() - t_loop)
             if failure:
                 break
-        if ck_every and k % ck_every == 0 and k < n_sys:
-            checkpoint(k, clock() - t_loop)
-        if progress and (k & 255) == 0 and clock() - last >= progress:
-            last = clock()
-            frac, el = (k - start) / (n_sys - start), last - t_loop
-            say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
-                f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
-    return failure, k, clock() - t_loop
+            if progress and (k & 255) == 0 and clock() - last >= progress:
+                last = clock()
+                frac, el = (k - start) / (n_sys - start), last - t_loop
+                say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
+                    f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
+    return failure, k, clock() - t_loop, interrupted
+
+
+class _SelfComm:
+    size, rank = 1, 0
+
+
+def _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every, wall):
+    """After system step ``k``: record probes, write fields, check the guard,
+    write a checkpoint; a guard failure message or None."""
+    n_sys, Dt = scene.n_system_steps, scene.system_dt
+    probes.record(k)
+    if fields and k % fields.every == 0:
+        fields.write(k * Dt)
+    if k % every == 0 or k == n_sys:
+        failure = guard.check(k)
+        if failure:
+            return failure
+    if ck_every and k % ck_every == 0 and k < n_sys:
+        checkpoint(k, wall)
+    return None
 
 
 def reference_label(scene) -> str:
@@ -273,6 +314,9 @@ def relative_errors(x, ref):
     scale_rms = np.linalg.norm(ref)
     return (float(np.max(np.abs(err)) / scale_max) if scale_max else float(np.max(np.abs(err))),
             float(np.linalg.norm(err) / scale_rms) if scale_rms else float(np.linalg.norm(err)))
+
+
+ZERO_REFERENCE = 1e-100      # a reference no larger than this is zero (denormals included)
 
 
 def add_reference(result, mdl, scene, comm, say):
@@ -299,8 +343,16 @@ def add_reference(result, mdl, scene, comm, say):
         ref = refs[probe.name]
         pr["reference_displacement"] = ref
         ok = np.isfinite(ref)                 # bar_wave: only until the first reflection
-        mx, rms = relative_errors(pr["displacement"][ok], ref[ok])
-        pr["attrs"].update(max_rel_error=mx, rms_rel_error=rms)
+        x, r = pr["displacement"][ok], ref[ok]
+        scale = float(np.max(np.abs(r))) if r.size else 0.0
+        if scale <= ZERO_REFERENCE:
+            # nothing to be relative to (the wave has not reached the probe):
+            # say so, and give the absolute error
+            pr["attrs"].update(max_rel_error=np.nan, rms_rel_error=np.nan, reference_zero=True,
+                               max_abs_error=float(np.max(np.abs(x - r))) if r.size else 0.0)
+        else:
+            mx, rms = relative_errors(x, r)
+            pr["attrs"].update(max_rel_error=mx, rms_rel_error=rms)
     if len(scene.probes) > 1 and scene.model.kind == "network":
         result.attrs["vector_rel_error"] = vector_error(
             np.array([result.probes[p.name]["displacement"] for p in scene.probes]),
@@ -347,7 +399,11 @@ def summary(result, output_file) -> list[str]:
                      f"relative error {a['vector_rel_error']:.3e}")
     for name, pr in result.probes.items():
         at = pr["attrs"]
-        if "max_rel_error" in at:
+        if at.get("reference_zero"):
+            lines.append(f"[solver]   probe {name}: the reference is zero over the run (nothing "
+                         f"to be relative to); max |error| {at['max_abs_error']:.3e} "
+                         f"(reference: {a['reference']})")
+        elif "max_rel_error" in at:
             lines.append(f"[solver]   probe {name}: max relative error {at['max_rel_error']:.3e}, "
                          f"RMS relative error {at['rms_rel_error']:.3e} (reference: {a['reference']})")
     lines.append(f"[solver]   output: {output_file}")

@@ -42,9 +42,10 @@ def bind(scene):
             _check_dof(f"initial.{kind}.{node}", node, 0, n, d)
     probes = []
     for i, probe in enumerate(scene.probes):
-        node = probe.node if probe.node is not None else _nearest(data, probe.at)
+        node = probe.node if probe.node is not None else snap(scene.model, data, probe.at,
+                                                              f"probes[{i}].at")
         _check_dof(f"probes[{i}]", node, probe.component, n, d)
-        probes.append(dataclasses.replace(probe, node=node, at=None))
+        probes.append(dataclasses.replace(probe, node=node))
     parts = tuple(dataclasses.replace(p, nodes=nodes, group=None)
                   for p, nodes in zip(scene.partitions, owned))
     return dataclasses.replace(scene, partitions=parts, probes=tuple(probes))
@@ -92,9 +93,25 @@ def _owned_nodes(scene, data, n) -> list[tuple[int, ...]]:
     return out
 
 
-def _nearest(mesh, at) -> int:
+def snap(spec, mesh, at, key) -> int:
+    """The body node nearest to point ``at``; refused when the point is farther
+    from it than the cells around that node reach (outside the body)."""
     pts = mesh.points
-    return int(np.argmin(np.linalg.norm(pts - np.asarray(at)[:pts.shape[1]], axis=1)))
+    dim = pts.shape[1]
+    if len(at) < dim or any(x != 0 for x in at[dim:]):
+        fail(key, f"{list(at)}: a point of the {dim}D mesh needs {dim} coordinates")
+    body = list(mesh.group(spec.body, "model.body").cells.values())
+    nodes = np.unique(np.concatenate([c.ravel() for c in body]))
+    p = np.asarray(at[:dim], dtype=float)
+    dist = np.linalg.norm(pts[nodes] - p, axis=1)
+    node = int(nodes[np.argmin(dist)])
+    reach = max((float(np.linalg.norm(pts[c[np.any(c == node, axis=1)]] - pts[node], axis=2).max())
+                 for c in body if np.any(c == node)), default=0.0)
+    if dist.min() > reach:
+        fail(key, f"{list(at)} is {dist.min():.3g} m from the nearest body node {node} at "
+                  f"{pts[node].tolist()}, farther than its cells reach ({reach:.3g} m): outside "
+                  "the body?")
+    return node
 
 
 def _check_dof(path, node, component, n, d):

@@ -74,6 +74,7 @@ class LoadGroup:
 
 class Partition:
     method = "?"
+    failed = False          # set by the scheme when stepping raised; it then stops stepping
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
                  system_ratio: int, damping=None, dist=None, graph=None):

@@ -19,7 +19,7 @@ from solver.partitions import ranks
 from solver.partitions import stability
 from solver.model.dofmap import ranges
 from solver.partitions.dem import DemPartition
-from solver.errors import SolverError, StabilityError
+from solver.errors import SceneError, SolverError, StabilityError
 from solver.partitions.fem import FemPartition
 
 PARTITION_TYPES = {"fem": FemPartition, "dem": DemPartition}
@@ -99,18 +99,35 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
         say(line)
     refuse(scene, decided.problems, say)
     comms = ranks.communicators(comm, assignment)
-    parts = []
-    for p in assignment.partitions_on(rank):
-        piece = dists[p].pieces[assignment.ranks[p].index(rank)]
-        parts.append(PARTITION_TYPES[scene.partitions[p].method](
-            scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
-            scene.damping, dist=dists[p], graph=graph))
+    parts, error, name = [], None, "?"
+    try:
+        for p in assignment.partitions_on(rank):
+            piece = dists[p].pieces[assignment.ranks[p].index(rank)]
+            name = scene.partitions[p].name
+            parts.append(PARTITION_TYPES[scene.partitions[p].method](
+                scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
+                scene.damping, dist=dists[p], graph=graph))
+    except SolverError as e:
+        error = e
+    except Exception as e:                      # noqa: BLE001 -- PETSc errors from options
+        from solver.driver.stop import describe
+        error = SceneError(f"partition '{name}': PETSc could not build it "
+                           f"({describe(e)}); check the -{name}_ options")
+    agree(comm, error)
     for part in parts:
         part.graph = None            # preallocation done: the graph rows are not kept
     del graph
     check_large(scene, parts, freqs, comm, say)
     refuse(scene, [], say, freqs)
     return Partitions(layouts, assignment, dists, parts, freqs, mdl)
+
+
+def agree(comm, error):
+    """Collective: raise the first rank's error on every rank if any rank has one."""
+    errors = comm.allgather(error) if comm.size > 1 else [error]
+    first = next((e for e in errors if e is not None), None)
+    if first is not None:
+        raise first
 
 
 def check_stability(scene, mdl, layouts, ids):

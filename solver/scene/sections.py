@@ -120,9 +120,12 @@ class Initial:
 class Probe:
     name: str = key("probe name (HDF5 group /probes/<name>)")
     node: int | None = key("probed node (or give at)", None, nonnegative=True)
-    at: tuple[float, ...] | None = key("continuum models: coordinates; the nearest mesh node is "
-                                       "probed", None)
-    component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
+    at: tuple[float, ...] | None = key(
+        "continuum models: a point [m]; the nearest node of the body's cells is probed (the "
+        "log and the output give its coordinates and distance); a point farther from it than "
+        "its cells reach is refused", None)
+    component: int = key("DOF of the node: 0 for networks; x, y (, z) = 0, 1 (, 2) for "
+                         "continua", 0, nonnegative=True)
 
 
 @dataclass(frozen=True)

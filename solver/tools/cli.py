@@ -131,7 +131,7 @@ def main(argv=None) -> int:
     if argv[0] == "schemes":
         print_schemes()
         return 0
-    rank = 0
+    rank, comm = 0, None
     try:
         path, overrides, petsc_args, restart = split_args(argv)
         if path is None:
@@ -141,8 +141,7 @@ def main(argv=None) -> int:
         rank = comm.rank
         check_launch(comm)
         scene = load_on_root(comm, path, overrides)
-        from solver.petscutil import init
-        init(petsc_args)
+        start_petsc(petsc_args)
         from solver.driver.runner import run, summary
         result = run(scene, comm, log=print, scene_text=open(path).read(), restart=restart)
         if rank == 0:
@@ -154,10 +153,60 @@ def main(argv=None) -> int:
                       "names no partition?)", file=sys.stderr, flush=True)
         return 0
     except SolverError as e:
+        # errors of the run are raised on every rank alike (the stages agree
+        # collectively): rank 0 says it
         if rank == 0:
             print(f"error: {e}", file=sys.stderr, flush=True)
+        if e.exit_code == 130 and comm is not None and comm.size > 1:
+            # MPICH's mpiexec, itself interrupted, may report 0 whatever the ranks
+            # return: the output is written, so end with MPI_Abort(130)
+            from solver.driver.stop import abort
+            comm.Barrier()
+            if rank == 0:
+                abort(comm, None, 130)
+            import time
+            time.sleep(10)
         return e.exit_code
     except KeyboardInterrupt:
-        if rank == 0:
-            print("error: interrupted; no output written", file=sys.stderr, flush=True)
-        return 130
+        return stop_everyone(comm, "interrupted before stepping; no output written", 130)
+    except Exception as e:                      # noqa: BLE001 -- one line, every rank ends
+        if os.environ.get("MTS_TRACEBACK"):
+            raise
+        from solver.driver.stop import describe
+        return stop_everyone(comm, f"internal error on rank {rank}: {describe(e)} (set "
+                                   "MTS_TRACEBACK=1 for the traceback)", 1)
+
+
+def stop_everyone(comm, message, code):
+    """A problem one rank may have alone: say it once and end every rank (MPI_Abort
+    on several ranks, so no rank waits for this one)."""
+    if comm is None or comm.size == 1:
+        print(f"error: {message}", file=sys.stderr, flush=True)
+        return code
+    import time
+    from solver.driver.stop import abort
+    if comm.rank != 0:
+        time.sleep(0.5)             # rank 0, if it has the same problem, says it first
+    abort(comm, message, code)
+    return code
+
+
+def start_petsc(petsc_args):
+    """petsc4py with the command line's PETSc options; a PETSc start-up error
+    (a missing -options_file, a malformed option) is one line, exit 2."""
+    from pathlib import Path
+
+    from solver.errors import SceneError
+    from solver.petscutil import init
+    for flag, value in zip(petsc_args, list(petsc_args[1:]) + [None]):
+        if flag in ("-options_file", "-options_file_yaml"):
+            if value is None or value.startswith("-"):
+                raise SceneError(f"{flag} needs a file name")
+            if not Path(value).is_file():
+                raise SceneError(f"{flag} {value}: file not found")
+    try:
+        init(petsc_args)
+    except Exception as e:                      # noqa: BLE001 -- petsc4py raises PETSc.Error
+        detail = " ".join(str(e).split())
+        raise SceneError(f"PETSc options {' '.join(petsc_args)}: PETSc could not start "
+                         f"({detail})") from None
