@@ -7,6 +7,9 @@
 #   ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 2]
 #   ./run.sh plot RESULT.h5           plot probes vs reference, error, energies
 #   ./run.sh bench                   run the benchmark scripts
+#   ./run.sh keys [--markdown]       every scene key with type, default and meaning
+#   ./run.sh schemes                 integrators and coupling schemes, stability limits
+#   ./run.sh --help                  this list
 #
 # Every form first installs what is missing (idempotent): Debian's MPICH and
 # OpenBLAS, then a virtual environment with PETSc, petsc4py and mpi4py built
@@ -19,6 +22,10 @@ VENV="${MTS_VENV:-$here/.venv}"
 PY="$VENV/bin/python"
 
 log() { echo "[run.sh] $*" >&2; }
+
+case "${1:-}" in
+  -h|--help|help) sed -n '3,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+esac
 
 # -n N first: a rank count that is not a whole number >= 1 is refused before anything runs
 nproc_arg=()

@@ -98,3 +98,38 @@ def test_unreadable_meshes(tmp_path):
     broken.write_text("Point(1) = {0, 0, 0;\n")
     with pytest.raises(SceneError, match="broken.geo: gmsh could not read it"):
         read(str(broken))
+
+
+DISC = """// built-in kernel: the circle's centre is a mesh node no cell uses
+lc = 0.25;
+Point(1) = {0, 0, 0, lc}; Point(2) = {1, 0, 0, lc}; Point(3) = {0, 1, 0, lc};
+Point(4) = {-1, 0, 0, lc}; Point(5) = {0, -1, 0, lc};
+Circle(1) = {2, 1, 3}; Circle(2) = {3, 1, 4}; Circle(3) = {4, 1, 5}; Circle(4) = {5, 1, 2};
+Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};
+Physical Surface("solid") = {1}; Physical Curve("rim") = {1, 2, 3, 4};
+"""
+
+
+def test_nodes_no_cell_uses_are_left_out(tmp_path):
+    """A circle's centre point is a mesh node outside every cell: the scene binds
+    and runs instead of reporting it 'owned by no partition'."""
+    from conftest import run_scene
+    from solver.model import data as model_data
+    from solver.scene import from_dict
+    (tmp_path / "disc.geo").write_text(DISC)
+    raw = {"name": "disc", "time": {"end": 1e-6, "dt": 1e-7},
+           "model": {"kind": "continuum", "mesh": str(tmp_path / "disc.geo"), "body": "solid",
+                     "material": {"E": 1e9, "nu": 0.3, "rho": 1000.0, "kind": "plane_strain"}},
+           "partitions": [{"name": "fem", "method": "fem", "group": "solid",
+                           "integrator": "explicit", "ratio": 1}],
+           "loads": [{"group": "rim", "kind": "sine", "amplitude": 1e3, "omega": 1e5}],
+           "probes": [{"name": "c", "at": [0.0, 0.0]}]}
+    scene = from_dict(raw)
+    mesh = model_data.read(scene.model)
+    used = np.unique(np.concatenate([c.ravel() for c in mesh.group("solid").cells.values()]))
+    assert used.size == len(mesh.points) - 1               # the centre point
+    assert sorted(scene.partitions[0].nodes) == used.tolist()
+    assert scene.probes[0].node in used                    # snapped to a body node
+    result = run_scene(raw, tmp_path)
+    assert result.attrs["status"] == "completed"
+    assert result.attrs["n_system_steps"] == 10

@@ -5,6 +5,7 @@ import sys
 import time
 
 import h5py
+from pathlib import Path
 import numpy as np
 
 from conftest import ROOT, raw_scene, run_cli, write_scene
@@ -72,3 +73,30 @@ def test_plot_command_on_completed_and_failed_runs(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "solver.tools.plot", str(tmp_path / "none.h5")],
                           cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 2 and "none.h5" in proc.stderr
+
+
+def test_output_says_where_it_came_from(tmp_path):
+    """The effective scene (after --set), the PETSc options, versions and commit
+    are stored; the summary names every file written (fields included)."""
+    import json
+
+    import h5py
+    import yaml
+    out = tmp_path / "p.h5"
+    proc = run_cli(["configs/wave_bar_fem.yaml", "--set", f"output.file={out}", "--set",
+                    "time.end=4e-7", "--set", "output.fields.every=10", "--set", "reference=none",
+                    "-fem_mat_type", "baij"])
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(out) as f:
+        effective = yaml.safe_load(f.attrs["scene_effective_yaml"])
+        assert effective["time"]["end"] == 4e-7 and effective["output"]["fields"] == {"every": 10}
+        assert "end: 5.5e-5" in f.attrs["scene_yaml"]             # the file as written
+        assert f.attrs["petsc_options"] == "-fem_mat_type baij"
+        versions = json.loads(f.attrs["versions"])
+        assert versions["PETSc"].startswith("3.") and versions["numpy"][0].isdigit()
+        assert f.attrs["commit"]
+        fields = list(f.attrs["field_files"])
+    assert [Path(x).name for x in fields] == ["p_fields.xdmf", "p_fields.h5"]
+    assert all(Path(x).is_file() for x in fields)
+    for name in fields:
+        assert f"[solver]   fields: {name}" in proc.stdout

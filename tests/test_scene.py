@@ -32,7 +32,61 @@ CASES = [
      ["coupling.external", "magic", "taylor"]),
     ("unsupported_combination", lambda r: r["partitions"][0].update(integrator="verlet"),
      ["partitions[0].integrator", "fem", "verlet"]),
+    ("end_too_far", lambda r: r["time"].update(end=1e308), ["time.end", "system steps", "at most"]),
+    ("end_overflows", lambda r: r["time"].update(end=float("inf")), ["time.end", "finite"]),
+    ("empty_scene_name", lambda r: r.update(name=""), ["name", "''", "scene name"]),
+    ("scene_name_escapes", lambda r: r.update(name="../x"), ["name", "'../x'"]),
+    ("probe_name_breaks_hdf5", lambda r: r["probes"][0].update(name="a/b"),
+     ["probes[0].name", "'a/b'"]),
+    ("empty_output_file", lambda r: r.update(output={"file": ""}), ["output.file", "file name"]),
 ]
+
+
+RAW_TEXT = [
+    # (id, scene text, words)
+    ("duplicate_key", "name: a\nname: b\n", ["line 2", "duplicate key 'name'"]),
+    ("alias_bomb", "a: &x [1, 2]\nb: [" + ", ".join(["*x"] * 200) + "]\n", ["alias"]),
+    ("deep_nesting", "a: " + "[" * 60 + "]" * 60 + "\n", ["nesting deeper"]),
+    ("python_tag", "name: !!python/object/apply:os.system [ls]\n", ["line 1", "python/object"]),
+    ("not_a_mapping", "- 1\n- 2\n", ["a scene is a YAML mapping"]),
+]
+
+
+@pytest.mark.parametrize("case", RAW_TEXT, ids=[c[0] for c in RAW_TEXT])
+def test_pathological_yaml_is_one_short_line(case, tmp_path):
+    _, text, words = case
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    proc = run_cli([path])
+    assert proc.returncode == 2
+    line, = proc.stderr.strip().splitlines()
+    assert line.startswith(f"error: {path}") and len(line) < 400
+    for word in words:
+        assert word in line, line
+
+
+def test_scene_that_is_not_utf8(tmp_path):
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes("name: caf\u00e9\n".encode("latin-1"))
+    proc = run_cli([path])
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == f"error: {path}: not UTF-8 text (byte 0xe9 at offset 9)"
+
+
+@pytest.mark.parametrize("override, words", [
+    ("time.end=!!python/object/apply:os.system [ls]", ["--set time.end", "not valid YAML"]),
+    ("=3", ["--set =3", "key.path=value"]),
+    ("time..end=3", ["key.path=value"]),
+    ("time.end=[1, 2", ["--set time.end", "not valid YAML"]),
+    ("loads.0.direction=[0, 0]", ["loads[0].direction", "zero vector"]),
+])
+def test_bad_overrides_are_one_line(override, words):
+    scene = "configs/wave_bar_fem.yaml" if "direction" in override else "configs/six_dof.yaml"
+    proc = run_cli([scene, "--set", override])
+    assert proc.returncode == 2, proc.stderr
+    line, = proc.stderr.strip().splitlines()
+    for word in words:
+        assert word in line, line
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])

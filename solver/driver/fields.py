@@ -50,6 +50,7 @@ class FieldWriter:
         self.dim = mdl.dof
         self.n = mdl.n_nodes
         self.writers = []
+        self.n_open = 0
         if comm.rank != 0:
             return
         base = Path(scene.output_file).resolve().with_suffix("")
@@ -80,6 +81,7 @@ class FieldWriter:
             part_w.write_points_cells(points[self.particles],
                                       [("vertex", np.arange(self.particles.size)[:, None])])
             self.writers.append(part_w)
+        self.n_open = len(self.writers)
 
     def write(self, t: float):
         local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dim),
@@ -102,6 +104,13 @@ class FieldWriter:
         if len(self.writers) > 1:
             self.writers[1].write_data(t, point_data={"displacement": u[self.particles],
                                                       "velocity": v[self.particles]})
+
+    def written(self) -> list[str]:
+        """The files written: each XDMF and the HDF5 file meshio keeps beside it."""
+        out = []
+        for xdmf in self.files[:self.n_open]:
+            out += [xdmf, str(Path(xdmf).with_suffix(".h5"))]
+        return out
 
     def close(self):
         for w in self.writers:

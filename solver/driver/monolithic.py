@@ -17,16 +17,16 @@ import numpy as np
 from solver.scene import Coupling, Guard, Partition, Time
 
 
-def n_nodes(scene) -> int:
-    """Nodes of a bound scene's model (each is owned by exactly one partition)."""
-    return sum(len(p.nodes) for p in scene.partitions)
+def all_nodes(scene) -> tuple[int, ...]:
+    """Every node a bound scene's partitions own (every node the body uses)."""
+    return tuple(sorted(n for p in scene.partitions for n in p.nodes))
 
 
 def reference_scene(scene):
     """The single-partition scene the reference runs."""
     ref = scene.reference
     method = "dem" if ref.integrator == "verlet" else "fem"
-    whole = Partition(name="reference", method=method, nodes=tuple(range(n_nodes(scene))),
+    whole = Partition(name="reference", method=method, nodes=all_nodes(scene),
                       integrator=ref.integrator, ratio=1)
     return dataclasses.replace(scene, name=f"{scene.name}_reference",
                                time=Time(end=scene.time.end, dt=ref.dt), partitions=(whole,),
@@ -61,7 +61,7 @@ def history(scene, t_axis, log=None) -> dict:
         if log:
             log(f"[solver] reference: monolithic {ref.integrator} run, {n} steps of {ref.dt:.3g} s")
         asm = build(rscene, MPI.COMM_SELF)
-        probes = Probes(rscene.probes, asm.parts, owner_map(n_nodes(rscene),
+        probes = Probes(rscene.probes, asm.parts, owner_map(asm.model.n_nodes,
                                                                   rscene.partitions), n)
         step = asm.scheme.step
         for s in range(n):

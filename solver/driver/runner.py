@@ -48,11 +48,13 @@ def check_reference(scene):
         raise StabilityError(f"reference.dt: {problems[0]}")
 
 
-def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None = None) -> RunResult:
+def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None = None,
+        provenance: dict | None = None) -> RunResult:
     """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output.
 
     ``restart``: an output file with a checkpoint of this scene; the run goes on
-    from there (on any rank count)."""
+    from there (on any rank count).  ``provenance``: extra root attributes
+    (:mod:`solver.driver.provenance`; versions and commit are always written)."""
     from mpi4py import MPI
 
     from solver.driver import output
@@ -96,7 +98,9 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         state.restore(saved, parts, scheme, guard)
         probes.restore(saved["probes"], start)
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
+    from solver.driver import provenance as prov
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start)
+    report.extra = {"versions": prov.versions(), "commit": prov.commit(), **(provenance or {})}
     report.setup_wall = time.perf_counter() - t_start
     spec = scene.output.checkpoint if scene.output else None
     checkpoint = Checkpoint(spec.every, scene, parts, guard, comm, report) if spec else None
@@ -117,6 +121,8 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
             fields.close()
 
     result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
+    if fields and rank == 0:
+        result.attrs["field_files"] = np.array(fields.written(), dtype=object)
     if scene.reference != "none" and not failure and result.probes:
         add_reference(result, mdl, scene, comm, say)
     # a completed run keeps its final state (restart with a later time.end to go on);
@@ -185,6 +191,7 @@ class Report:
     def __init__(self, scene, asm, probes, guard, comm, scene_text, t_start):
         self.scene, self.asm, self.probes, self.guard = scene, asm, probes, guard
         self.comm, self.scene_text, self.t_start = comm, scene_text, t_start
+        self.extra = {}
 
     def result(self, done: int, status: str, message: str, loop_wall: float) -> RunResult:
         scene, comm, parts = self.scene, self.comm, self.asm.parts
@@ -227,7 +234,7 @@ class Report:
                  "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
                  "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
                  "t_end": done * Dt, "reference": reference_label(scene),
-                 "scene_yaml": self.scene_text}
+                 "scene_yaml": self.scene_text, **self.extra}
         for name, pa in part_attrs.items():
             attrs[f"steps_{name}"] = pa["steps"]
             attrs[f"wall_time_{name}"] = pa["wall_time"]
@@ -407,4 +414,6 @@ def summary(result, output_file) -> list[str]:
             lines.append(f"[solver]   probe {name}: max relative error {at['max_rel_error']:.3e}, "
                          f"RMS relative error {at['rms_rel_error']:.3e} (reference: {a['reference']})")
     lines.append(f"[solver]   output: {output_file}")
+    for name in a.get("field_files", ()):
+        lines.append(f"[solver]   fields: {name}")
     return lines

@@ -19,7 +19,12 @@ def apply_override(raw: dict, assignment: str) -> None:
     if "=" not in assignment:
         raise SceneError(f"--set {assignment}: expected key.path=value")
     path, text = assignment.split("=", 1)
-    value = yaml_load(text) if text.strip() else None
+    if not path or any(not part for part in path.split(".")):
+        raise SceneError(f"--set {assignment}: expected key.path=value")
+    try:
+        value = yaml_load(text) if text.strip() else None
+    except yaml.YAMLError as e:
+        raise SceneError(f"--set {path}: the value is not valid YAML ({yaml_problem(e).strip()})") from None
     parts = path.split(".")
     node = raw
     for depth, part in enumerate(parts):
@@ -54,8 +59,41 @@ def _list_index(items: list, part: str, where: str) -> int:
     raise SceneError(f"--set {where}: no item named {part!r}")
 
 
+MAX_ALIASES = 100        # alias uses per document: anchors are for reuse, not expansion bombs
+MAX_DEPTH = 32           # nesting of mappings and lists
+
+
 class _Loader(yaml.SafeLoader):
-    """SafeLoader that also reads YAML 1.2 floats such as ``1e-6`` as numbers."""
+    """SafeLoader that also reads YAML 1.2 floats such as ``1e-6`` as numbers,
+    and refuses duplicate keys, alias expansion and deep nesting."""
+
+    def compose_node(self, parent, index):
+        self._depth = getattr(self, "_depth", 0) + 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise yaml.YAMLError(f"nesting deeper than {MAX_DEPTH} levels")
+            if self.check_event(yaml.AliasEvent):
+                self._aliases = getattr(self, "_aliases", 0) + 1
+                if self._aliases > MAX_ALIASES:
+                    raise yaml.YAMLError(f"more than {MAX_ALIASES} alias uses (*name)")
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            try:
+                dup = key in seen
+            except TypeError:
+                raise yaml.constructor.ConstructorError(
+                    None, None, "a mapping key must be a plain value", key_node.start_mark)
+            if dup:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r}", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep)
 
 
 _Loader.add_implicit_resolver(
@@ -72,16 +110,26 @@ def yaml_load(text: str):
     return yaml.load(text, Loader=_Loader)
 
 
+def yaml_problem(e: yaml.YAMLError) -> str:
+    """' line N: problem' of a YAML error, short (never the document)."""
+    mark = getattr(e, "problem_mark", None)
+    where = f" line {mark.line + 1}" if mark else ""
+    problem = getattr(e, "problem", None) or str(e)
+    problem = " ".join(str(problem).split())
+    return f"{where} {problem[:200]}"
+
+
 def load_raw(path: str | Path) -> dict:
     p = Path(path)
     if not p.is_file():
         raise SceneError(f"{path}: scene file not found")
     try:
-        raw = yaml_load(p.read_text())
+        raw = yaml_load(p.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{path}: not UTF-8 text (byte {e.object[e.start]:#04x} at offset "
+                         f"{e.start})") from None
     except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" line {mark.line + 1}" if mark else ""
-        raise SceneError(f"{path}:{where} not valid YAML ({getattr(e, 'problem', e)})") from None
+        raise SceneError(f"{path}:{yaml_problem(e)} (not a valid scene YAML)") from None
     if not isinstance(raw, dict):
         raise SceneError(f"{path}: a scene is a YAML mapping")
     return raw
@@ -96,10 +144,16 @@ def from_dict(raw: dict) -> Scene:
 
 def load(path: str | Path, overrides=()) -> Scene:
     """Read, override and validate a scene file.  Errors name the file and key."""
+    return load_with_text(path, overrides)[0]
+
+
+def load_with_text(path: str | Path, overrides=()) -> tuple[Scene, str]:
+    """(the scene, the effective scene as YAML: the file with the overrides applied)."""
     raw = load_raw(path)
     for assignment in overrides:
         apply_override(raw, assignment)
     try:
-        return from_dict(raw)
+        scene = from_dict(raw)
     except SceneError as e:
         raise SceneError(f"{path}: {e}") from None
+    return scene, yaml.safe_dump(raw, sort_keys=False)

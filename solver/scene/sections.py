@@ -25,6 +25,15 @@ class Time:
 
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
+# scene and probe names become file names and HDF5 groups: no path separators
+LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,99}$")
+MAX_SYSTEM_STEPS = 10**9   # a probe history is 16 bytes per system step
+
+
+def check_label(value, path, what):
+    if not LABEL.match(value):
+        fail(path, f"{value!r}: a {what} is 1-100 letters, digits, '_', '.', '+' or '-', not "
+                   "starting with '.' or '-' (it names files and HDF5 groups)")
 
 
 @dataclass(frozen=True)
@@ -94,6 +103,9 @@ class Load:
     def validate(self, path):
         if (self.node is None) == (self.group is None):
             fail(f"{path}.node", "give either node or group")
+        if self.direction is not None and not any(self.direction):
+            fail(f"{path}.direction", f"{list(self.direction)} is the zero vector: a traction "
+                 "needs a direction")
         need = {"sine": ("omega",), "half_sine": ("duration",), "tabulated": ("table",)}[self.kind]
         for name in ("omega", "duration", "table"):
             given = getattr(self, name) is not None
@@ -126,6 +138,9 @@ class Probe:
         "its cells reach is refused", None)
     component: int = key("DOF of the node: 0 for networks; x, y (, z) = 0, 1 (, 2) for "
                          "continua", 0, nonnegative=True)
+
+    def validate(self, path):
+        check_label(self.name, f"{path}.name", "probe name")
 
 
 @dataclass(frozen=True)
@@ -176,6 +191,10 @@ class Output:
                           nonnegative=True)
     checkpoint: Checkpoint | None = key("write the run state into the output file every so "
                                         "many system steps", None)
+
+    def validate(self, path):
+        if not self.file.strip() or self.file.endswith("/"):
+            fail(f"{path}.file", f"{self.file!r}: needs a file name")
 
 
 @dataclass(frozen=True)
@@ -244,6 +263,7 @@ class Scene:
         """Checks of the configuration alone; keys that refer to the mesh or the
         network are checked when the scene is bound (:mod:`solver.model.binding`)."""
         continuum = self.model.kind == "continuum"
+        check_label(self.name, "name", "scene name")
         if not self.partitions:
             fail("partitions", "at least one partition is needed")
         names = set()
@@ -262,8 +282,12 @@ class Scene:
         for p, part in enumerate(self.partitions):
             if big % part.ratio:
                 fail(f"partitions[{p}].ratio", f"{part.ratio} does not divide the largest ratio {big}")
-        if self.n_system_steps < 1:
+        steps = self.time.end / self.system_dt
+        if steps < 1 - 1e-9:
             fail("time.end", f"{self.time.end} is shorter than one system step ({self.system_dt})")
+        if steps > MAX_SYSTEM_STEPS:
+            fail("time.end", f"{self.time.end} s is {steps:.3g} system steps of {self.system_dt:g} "
+                 f"s; at most {MAX_SYSTEM_STEPS:.0e} are run (histories are kept in memory)")
         for i, ld in enumerate(self.loads):
             if ld.group is not None and not continuum:
                 fail(f"loads[{i}].group", "tractions on groups need a continuum model")

@@ -13,10 +13,17 @@ import sys
 
 from solver.errors import LaunchError, SolverError
 
-USAGE = """usage: python -m solver SCENE.yaml [--set key.path=value ...] [--restart FILE] [PETSc options]
-       python -m solver keys [--markdown [--update docs/scene.md]] | schemes
-PETSc options (e.g. -options_file configs/x.opts, -log_view, -fem_mat_type baij) go to PETSc;
-every partition's PETSc objects carry the prefix <partition name>_ ."""
+USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--restart FILE] [PETSc options]
+       ./run.sh test                          the test suite
+       ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 1,2] [--treatments ...] [--dts ...] [--schemes ...]
+       ./run.sh plot RESULT.h5 [MORE.h5 ...] [--probe NAME] [-o FILE.png]
+       ./run.sh bench                         the benchmarks (benchmarks/bench_*.py)
+       ./run.sh keys [--markdown]             every scene key: type, default, meaning
+       ./run.sh schemes                       integrators and coupling schemes, stability limits
+(python -m solver ... is the same on one process.)
+PETSc options (e.g. -options_file configs/implicit_cg.opts, -log_view, -fem_mat_type baij) go
+to PETSc; every partition's PETSc objects carry the prefix <partition name>_ ;
+-exchange_measure_wait times the wait for the slower rank apart from the exchange."""
 
 LAUNCH_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS")
 
@@ -103,18 +110,18 @@ def print_schemes():
 def load_on_root(comm, path, overrides):
     """Rank 0 reads the scene and its mesh or network and binds them; the other
     ranks receive the bound scene (they never read the mesh)."""
-    from solver import scene as scene_mod
-    scene, error = None, None
+    from solver.scene.file import load_with_text
+    loaded, error = None, None
     if comm.rank == 0:
         try:
-            scene = scene_mod.load(path, overrides)
+            loaded = load_with_text(path, overrides)
         except SolverError as e:
             error = e
     if comm.size > 1:
-        scene, error = comm.bcast((scene, error))
+        loaded, error = comm.bcast((loaded, error))
     if error is not None:
         raise error
-    return scene
+    return loaded
 
 
 def main(argv=None) -> int:
@@ -140,10 +147,12 @@ def main(argv=None) -> int:
         comm = MPI.COMM_WORLD
         rank = comm.rank
         check_launch(comm)
-        scene = load_on_root(comm, path, overrides)
+        scene, effective = load_on_root(comm, path, overrides)
         start_petsc(petsc_args)
         from solver.driver.runner import run, summary
-        result = run(scene, comm, log=print, scene_text=open(path).read(), restart=restart)
+        from solver.driver import provenance
+        result = run(scene, comm, log=print, scene_text=open(path, encoding="utf-8").read(),
+                     restart=restart, provenance=provenance.attrs(effective, petsc_args))
         if rank == 0:
             for line in summary(result, scene.output_file):
                 print(line, flush=True)
