@@ -17,7 +17,8 @@
 # requirements.txt. A petsc4py + mpi4py already importable by python3 is reused.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-cd "$here"
+# the user's working directory is kept: scene paths given here are theirs, and
+# paths inside a scene are relative to the scene file
 VENV="${MTS_VENV:-$here/.venv}"
 PY="$VENV/bin/python"
 
@@ -62,7 +63,7 @@ python_ok() {
 
 ensure_python() {
   local stamp="$VENV/.requirements.sha"
-  local want; want="$(cat requirements.txt requirements-petsc.txt | sha256sum | cut -d' ' -f1)"
+  local want; want="$(cat "$here/requirements.txt" "$here/requirements-petsc.txt" | sha256sum | cut -d' ' -f1)"
   # the stamp is written only after the imports were checked: trust it (no imports here)
   if [ -x "$PY" ] && [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ]; then
     return
@@ -72,20 +73,20 @@ ensure_python() {
     # A working petsc4py + mpi4py is used as it is: the venv sees it, pip adds the rest.
     log "using the petsc4py and mpi4py already importable by python3"
     python3 -m venv --system-site-packages "$VENV"
-    "$PY" -m pip install -q -r requirements.txt
+    "$PY" -m pip install -q -r "$here/requirements.txt"
   else
     ensure_system
     [ -x "$PY" ] || { log "creating virtual environment $VENV"; python3 -m venv "$VENV"; }
     log "installing Python packages (PETSc builds from source the first time: ~18 min)"
     "$PY" -m pip install -q --upgrade pip setuptools wheel
-    "$PY" -m pip install -q "$(grep -E '^numpy==' requirements.txt)" cython
+    "$PY" -m pip install -q "$(grep -E '^numpy==' "$here/requirements.txt")" cython
     if ! petsc_ok "$PY"; then
       # PETSc against Debian's MPICH and OpenBLAS, optimised, no downloads.
       export PETSC_CONFIGURE_OPTIONS="--with-debugging=0 --with-blaslapack-lib=-lopenblas --with-fc=0 --with-x=0 COPTFLAGS=-O2 CXXOPTFLAGS=-O2"
       MPICC=mpicc.mpich MPICXX=mpicxx.mpich "$PY" -m pip install -q --no-binary mpi4py,petsc,petsc4py \
-        -r requirements-petsc.txt
+        -r "$here/requirements-petsc.txt"
     fi
-    "$PY" -m pip install -q -r requirements.txt
+    "$PY" -m pip install -q -r "$here/requirements.txt"
   fi
   python_ok "$PY" || { log "installation finished but petsc4py/mpi4py or the wheels do not import"; exit 1; }
   rm -f "$VENV/.mpiexec"
@@ -121,6 +122,7 @@ export PYTHONPATH="$here${PYTHONPATH:+:$PYTHONPATH}"
 case "${1:-}" in
   test)
     shift
+    cd "$here"                                     # the suite runs in the project
     exec "$PY" -m pytest -q tests "$@"
     ;;
   sweep)
@@ -133,13 +135,14 @@ case "${1:-}" in
     ;;
   bench)
     shift
+    cd "$here"
     exec "$PY" benchmarks/run_all.py "$@"
     ;;
   install)
     log "environment ready: $PY, $MPIEXEC"
     ;;
   "")
-    exec "$PY" -m solver configs/six_dof.yaml
+    exec "$PY" -m solver "$here/configs/six_dof.yaml"
     ;;
   *)
     if [ ${#nproc_arg[@]} -gt 0 ]; then

@@ -22,8 +22,11 @@ def mpiexec() -> str:
 
 
 def raw_scene(name: str) -> dict:
+    """configs/NAME.yaml as data, its paths made absolute (so a copy written
+    anywhere finds the same mesh and writes to the same results/)."""
     from solver.scene import yaml_load
-    return yaml_load((CONFIGS / f"{name}.yaml").read_text())
+    from solver.scene.file import anchor_paths
+    return anchor_paths(yaml_load((CONFIGS / f"{name}.yaml").read_text()), CONFIGS)
 
 
 def write_scene(path: Path, raw: dict) -> Path:

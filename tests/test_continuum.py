@@ -34,7 +34,7 @@ def split_bar(tmp_path, eta=2, end=1.2e-5):
     raw = raw_scene("wave_bar_fem")
     raw["name"] = "bar_split"
     raw["time"] = {"end": end, "dt": 1e-8}
-    raw["model"]["mesh"] = "meshes/bar_split.geo"
+    raw["model"]["mesh"] = str(ROOT / "meshes" / "bar_split.geo")
     raw["partitions"] = [
         {"name": "west", "method": "fem", "group": "west", "integrator": "explicit", "ratio": eta},
         {"name": "east", "method": "fem", "group": "east", "integrator": "explicit", "ratio": 1}]
@@ -64,7 +64,9 @@ def test_continuum_errors(tmp_path):
          "model.material.kind: solid does not fit a 2D mesh"),
         (("reference",), "modal", "reference: modal references are for network models"),
         (("reference",), {"kind": "bar", "length": 0.32}, "reference.kind: 'bar' is not one of"),
-        (("model", "mesh"), "meshes/nope.geo", "model.mesh: meshes/nope.geo: mesh file not found"),
+        # relative to the scene file's directory
+        (("model", "mesh"), "meshes/nope.geo",
+         f"model.mesh: {tmp_path / 'meshes' / 'nope.geo'}: mesh file not found"),
     ]
     for path, value, message in cases:
         raw = raw_scene("wave_bar_fem")
@@ -301,3 +303,29 @@ def test_probe_points_snap_to_body_nodes_and_say_where(tmp_path):
     proc = run_cli([write_scene(tmp_path / "q.yaml", raw)])
     assert proc.returncode == 2
     assert "probes[0].at: [0.5, 0.0012] is" in proc.stderr and "outside the body?" in proc.stderr
+
+
+def test_paths_in_a_scene_are_relative_to_its_file(tmp_path):
+    """A scene in its own folder names its mesh and output relative to itself;
+    run from another directory, through ./run.sh, it finds both; --set paths
+    are relative to the working directory."""
+    import shutil
+    import subprocess
+    project = tmp_path / "project"
+    (project / "geo").mkdir(parents=True)
+    shutil.copy(ROOT / "meshes" / "wave_bar.geo", project / "geo" / "bar.geo")
+    raw = raw_scene("wave_bar_fem")
+    raw["time"]["end"] = 2e-7
+    raw["reference"] = "none"
+    raw["model"]["mesh"] = "geo/bar.geo"
+    raw["output"] = {"file": "out/bar.h5", "progress": 0}
+    write_scene(project / "bar.yaml", raw)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    proc = subprocess.run([str(ROOT / "run.sh"), "../project/bar.yaml"], cwd=elsewhere,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert (project / "out" / "bar.h5").is_file() and not (elsewhere / "out").exists()
+    proc = run_cli([project / "bar.yaml", "--set", "output.file=here.h5"], cwd=elsewhere)
+    assert proc.returncode == 0, proc.stderr
+    assert (elsewhere / "here.h5").is_file()

@@ -1,5 +1,6 @@
 """The sweep command writes the error-against-run-time table and plots."""
 import csv
+import os
 import subprocess
 import sys
 
@@ -47,3 +48,52 @@ def test_sweep_over_base_steps_fits_the_order(tmp_path):
     two = [r for r in rows if r["ranks"] == "2"]
     assert all(float(r["implicit_wait_us"]) > 0 and float(r["explicit_wait_us"]) > 0 for r in two)
     assert "eq. 9 error" in (tmp_path / "sweep.md").read_text()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--ratios", ","], "error: --ratios: expected a comma-separated list, got ','"),
+    (["--ratios", "1,x"], "error: --ratios: '1,x' is not a list of whole numbers"),
+    (["--dts", "0,1"], "error: --dts: every value must be positive and finite, got '0,1'"),
+    (["-n", "0"], "error: -n: every value must be positive and finite, got '0'"),
+    (["--treatments", ""], "error: --treatments: expected a comma-separated list, got ''"),
+])
+def test_sweep_refuses_bad_lists_naming_the_option(args, message, tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "solver.tools.sweep", "configs/six_dof.yaml",
+                           *args, "--out", str(tmp_path)], cwd=ROOT, capture_output=True,
+                          text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    assert proc.returncode == 2 and proc.stderr.strip() == message
+
+
+def test_sweep_ends_with_the_exit_code_of_the_run_it_wraps(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "solver.tools.sweep", "configs/six_dof.yaml",
+                           "--ratios", "1", "--set", "time.dt=3", "--out", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+    assert proc.returncode == 2                        # the run's: an unstable step
+    line, = proc.stderr.strip().splitlines()
+    assert line.startswith("error: sweep: run failed") and "unstable" in line
+
+
+def test_plot_refuses_what_it_cannot_read(tmp_path):
+    import h5py
+    (tmp_path / "junk.h5").write_text("not hdf5")
+    with h5py.File(tmp_path / "foreign.h5", "w") as f:
+        f["x"] = [1.0]
+    good = tmp_path / "good.h5"
+    run = subprocess.run([sys.executable, "-m", "solver", "configs/six_dof.yaml", "--set",
+                          "time.end=0.01", "--set", f"output.file={good}"], cwd=ROOT,
+                         capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert run.returncode == 0, run.stderr
+    (tmp_path / "cut.h5").write_bytes(good.read_bytes()[:2000])
+    cases = [([tmp_path / "nope.h5"], "no such output file"),
+             ([tmp_path / "junk.h5"], "not a readable HDF5 file"),
+             ([tmp_path / "cut.h5"], "not a readable HDF5 file"),
+             ([tmp_path / "foreign.h5"], "not an output of this solver (no /probes, /energy)"),
+             ([good, "--probe", "zz"], "no probe 'zz' (it has: x3)")]
+    for args, words in cases:
+        proc = subprocess.run([sys.executable, "-m", "solver.tools.plot", *map(str, args), "-o",
+                               str(tmp_path / "p.png")], cwd=ROOT, capture_output=True, text=True,
+                              env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
+        assert proc.returncode == 2, (args, proc.stderr)
+        line, = proc.stderr.strip().splitlines()
+        assert line.startswith(f"error: {args[0]}: ") and words in line, line

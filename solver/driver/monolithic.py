@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import time
 from pathlib import Path
 
 import numpy as np
@@ -64,9 +65,16 @@ def history(scene, t_axis, log=None) -> dict:
         probes = Probes(rscene.probes, asm.parts, owner_map(asm.model.n_nodes,
                                                                   rscene.partitions), n)
         step = asm.scheme.step
+        every = scene.output.progress if scene.output else 10.0
+        t0 = last = time.perf_counter()
         for s in range(n):
             step(s * ref.dt)
             probes.record(s + 1)
+            if log and every and (s & 255) == 255 and time.perf_counter() - last >= every:
+                last = time.perf_counter()
+                frac = (s + 1) / n
+                log(f"[solver] reference: {s + 1}/{n} steps ({100 * frac:.0f}%), "
+                    f"{last - t0:.1f} s elapsed, about {(last - t0) * (1 - frac) / frac:.1f} s to go")
         t = np.arange(n + 1) * ref.dt
         data = {name: h["displacement"] for name, h in probes.histories(t, n).items()}
         asm.destroy()

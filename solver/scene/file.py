@@ -147,9 +147,30 @@ def load(path: str | Path, overrides=()) -> Scene:
     return load_with_text(path, overrides)[0]
 
 
+# keys holding paths: in a scene file they are relative to the file's directory
+PATH_KEYS = (("model", "mesh"), ("model", "file"), ("output", "file"))
+
+
+def anchor_paths(raw: dict, base: str | Path) -> dict:
+    """``raw`` with its relative paths (PATH_KEYS) joined to ``base``, and the
+    default output ``results/<name>.h5`` placed there too."""
+    import os
+    for section, key in PATH_KEYS:
+        node = raw.get(section)
+        if isinstance(node, dict) and isinstance(node.get(key), str) and node[key].strip():
+            if not os.path.isabs(node[key]):
+                node[key] = os.path.normpath(os.path.join(str(base), node[key]))
+    if raw.get("output") is None and isinstance(raw.get("name"), str):
+        raw["output"] = {"file": os.path.normpath(os.path.join(str(base), "results",
+                                                               f"{raw['name']}.h5"))}
+    return raw
+
+
 def load_with_text(path: str | Path, overrides=()) -> tuple[Scene, str]:
-    """(the scene, the effective scene as YAML: the file with the overrides applied)."""
-    raw = load_raw(path)
+    """(the scene, the effective scene as YAML: the file with the overrides applied).
+    Paths in the file are relative to its directory; paths given in
+    ``overrides`` to the working directory."""
+    raw = anchor_paths(load_raw(path), Path(path).parent)
     for assignment in overrides:
         apply_override(raw, assignment)
     try:

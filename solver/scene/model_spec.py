@@ -103,7 +103,7 @@ class NetworkModel:
         parse=_generator, choices_doc="mapping with name: chain | metamaterial",
         variants=(ChainGenerator, MetamaterialGenerator))
     file: str | None = key("NPZ or HDF5 file with arrays mass, spring_i, spring_j (-1 = ground), "
-                           "stiffness; path relative to the working directory", None)
+                           "stiffness; path relative to the scene file", None)
 
     def validate(self, path):
         if (self.masses is None) != (self.springs is None):
@@ -148,7 +148,7 @@ class ContinuumModel:
     """An elastic body meshed with gmsh; nodes carry dim DOFs."""
 
     kind: Literal["continuum"] = key("model kind")
-    mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the working directory")
+    mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the scene file")
     material: Material = key("linear elastic material")
     body: str = key("physical group of the body's cells", "solid")
     fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())

@@ -179,7 +179,8 @@ class Checkpoint:
 
 @dataclass(frozen=True)
 class Output:
-    file: str = key("HDF5 output path, relative to the working directory")
+    file: str = key("HDF5 output path, relative to the scene file (--set: to the working "
+                    "directory); default results/<name>.h5 beside the scene file")
     fields: Fields | None = key("continuum models: XDMF time series of the mesh fields "
                                 "(<file stem>_fields.xdmf) and the DEM particles (<stem>_particles.xdmf) "
                                 "for ParaView", None)

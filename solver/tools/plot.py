@@ -86,6 +86,25 @@ def compare(paths, probe, out) -> str:
     return out
 
 
+def check(path: str, probe: str | None) -> str | None:
+    """Why ``path`` cannot be plotted (missing, not HDF5, truncated, not a
+    solver output, no such probe), or None."""
+    if not Path(path).is_file():
+        return "no such output file"
+    try:
+        with h5py.File(path, "r") as f:
+            missing = [k for k in ("probes", "energy") if k not in f]
+            if missing or "status" not in f.attrs:
+                what = ", ".join("/" + m for m in missing) or "status attribute"
+                return f"not an output of this solver (no {what})"
+            if probe is not None and probe not in f["probes"]:
+                have = ", ".join(sorted(f["probes"])) or "none"
+                return f"no probe {probe!r} (it has: {have})"
+    except OSError as e:
+        return f"not a readable HDF5 file ({' '.join(str(e).split())[:160]})"
+    return None
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m solver.tools.plot", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -94,8 +113,9 @@ def main(argv=None) -> int:
     ap.add_argument("--probe", help="probe to compare across files (default: each file's first)")
     args = ap.parse_args(argv)
     for path in args.files:
-        if not Path(path).is_file():
-            print(f"error: {path}: no such output file", file=sys.stderr)
+        problem = check(path, args.probe)
+        if problem:
+            print(f"error: {path}: {problem}", file=sys.stderr)
             return 2
     if len(args.files) > 1:
         out = compare(args.files, args.probe, args.out or "compare.png")

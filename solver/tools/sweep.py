@@ -44,8 +44,31 @@ def run_one(scene_path, n, sets, out_file, petsc_options=()):
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         tail = (proc.stderr.strip().splitlines() or ["(no message)"])[-1]
-        raise SystemExit(f"sweep: run failed ({' '.join(sets)}): {tail}")
+        raise RunError(proc.returncode, f"run failed ({' '.join(sets)}): {tail}")
     return read_run(out_file)
+
+
+class RunError(Exception):
+    """A run of the sweep failed: the sweep ends with that run's exit code."""
+
+    def __init__(self, code: int, message: str):
+        super().__init__(message)
+        self.code = code
+
+
+def number_list(option: str, text: str | None, kind, positive=True) -> list:
+    """``text`` as a comma-separated list of ``kind``, refused naming ``option``."""
+    items = [x.strip() for x in (text or "").split(",")]
+    if not text or not all(items):
+        raise ValueError(f"{option}: expected a comma-separated list, got {text!r}")
+    try:
+        values = [kind(x) for x in items]
+    except ValueError:
+        raise ValueError(f"{option}: {text!r} is not a list of "
+                         f"{'whole numbers' if kind is int else 'numbers'}") from None
+    if positive and any(not (v > 0) or v != v or v == float("inf") for v in values):
+        raise ValueError(f"{option}: every value must be positive and finite, got {text!r}")
+    return values
 
 
 def read_run(path) -> dict:
@@ -156,13 +179,24 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     try:
         scene = load(args.scene, args.sets)
-        ranks = [int(x) for x in args.ranks.split(",")]
-        by_dt = bool(args.dts)
-        points = [float(x) for x in args.dts.split(",")] if by_dt else \
-            [int(x) for x in args.ratios.split(",")]
+        ranks = number_list("-n", args.ranks, int)
+        by_dt = args.dts is not None
+        points = number_list("--dts", args.dts, float) if by_dt else \
+            number_list("--ratios", args.ratios, int)
+        for option, text in (("--schemes", args.schemes), ("--treatments", args.treatments)):
+            if text is not None and not all(x.strip() for x in text.split(",")):
+                raise ValueError(f"{option}: expected a comma-separated list, got {text!r}")
     except (SceneError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    try:
+        return sweep(args, scene, ranks, by_dt, points)
+    except RunError as e:
+        print(f"error: sweep: {e}", file=sys.stderr)
+        return e.code
+
+
+def sweep(args, scene, ranks, by_dt, points) -> int:
     schemes = (args.schemes or scene.coupling.scheme).split(",")
     treatments = (args.treatments or scene.coupling.external).split(",")
     coarse = args.partition or max(scene.partitions, key=lambda p: p.ratio).name
