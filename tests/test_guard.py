@@ -1,5 +1,7 @@
 """Unstable steps are refused before stepping; blow-ups stop the run at once."""
 import h5py
+import numpy as np
+import pytest
 
 from conftest import raw_scene, run_cli, write_scene
 
@@ -45,3 +47,30 @@ def test_non_finite_state_stops_the_run(tmp_path):
     assert "non-finite state" in proc.stderr
     with h5py.File(out) as f:
         assert f.attrs["status"] == "failed" and "non-finite" in f.attrs["message"]
+
+
+@pytest.mark.parametrize("name", ["bar3d", "metamaterial"])
+def test_lanczos_estimate_is_the_exact_omega_raised_by_its_margin(name, monkeypatch):
+    """Above EXACT_LIMIT DOFs omega_max comes from ARPACK's Lanczos: never below
+    the dense eigenvalue, and within the stated margin above it."""
+    from conftest import raw_scene
+    from solver.coupling import overlap
+    from solver.model import arrays
+    from solver.partitions import stability
+    from solver.scene import from_dict
+    scene = from_dict(raw_scene(name))
+    mdl = arrays.build(scene, [1] * len(scene.partitions))
+    layouts = overlap.derive(mdl.graph(), scene.partitions, [1] * len(scene.partitions))
+    dm = mdl.dofmap
+    for spec, lay in zip(scene.partitions, layouts):
+        held = lay.held
+        blocks = mdl.bond_blocks(held) if spec.method == "dem" else mdl.stiffness_blocks(held)
+        mass = np.where(mdl.fixed[dm.dofs(held)], np.inf, np.repeat(mdl.mass[held], dm.counts[held]))
+        assert stability.EXACT_LIMIT < mass.size <= stability.DENSE_LIMIT
+        fast = stability.omega_max(blocks, held, mass, dm)
+        monkeypatch.setattr(stability, "EXACT_LIMIT", 10**9)
+        exact = stability.omega_max(blocks, held, mass, dm)
+        monkeypatch.undo()
+        assert fast.method == "Lanczos" and exact.method == "exact"
+        ratio = fast.omega_max / exact.omega_max
+        assert 1.0 <= ratio <= 1.0 + 2 * stability.LANCZOS_MARGIN, (spec.name, ratio)
