@@ -12,12 +12,12 @@ from pathlib import Path
 @lru_cache(maxsize=1)
 def versions() -> str:
     """JSON {package: version} of what computed the run."""
+    from importlib import metadata
     out = {"python": sys.version.split()[0]}
-    for name in ("numpy", "h5py", "meshio", "gmsh", "yaml", "mpi4py", "petsc4py"):
-        try:
-            mod = __import__(name)
-            out[name] = str(getattr(mod, "__version__", "?"))
-        except Exception:                       # noqa: BLE001 -- absent: say so
+    for name in ("numpy", "scipy", "h5py", "meshio", "gmsh", "PyYAML", "mpi4py", "petsc4py"):
+        try:                                    # from the installed metadata: nothing imported
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
             out[name] = "not installed"
     try:
         from petsc4py import PETSc
