@@ -64,3 +64,15 @@ def test_every_matrix_type_gives_the_same_answer(tmp_path):
             assert 0 < err < 1e-6
         assert np.abs(u - base).max() <= 1e-13 * np.abs(base).max(), opts
         assert abs(err - base_err) <= 1e-6 * base_err, opts
+
+
+def test_unused_options_consider_every_rank(tmp_path):
+    """On 2 ranks -dem_mat_type is read only on the dem rank: it is used, not
+    reported; a misspelled option is reported once; PETSc's own rank-0 list
+    is not printed."""
+    proc = run_cli([_short(tmp_path), "-dem_mat_type", "aij", "-fem_mat_typo", "aij"], n=2,
+                   timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    warned = [line for line in proc.stderr.splitlines() if "not used" in line]
+    assert len(warned) == 1 and "-fem_mat_typo" in warned[0]
+    assert "Option left" not in proc.stderr and "-dem_mat_type" not in proc.stderr

@@ -153,11 +153,16 @@ def main(argv=None) -> int:
         from solver.driver import provenance
         result = run(scene, comm, log=print, scene_text=open(path, encoding="utf-8").read(),
                      restart=restart, provenance=provenance.attrs(effective, petsc_args))
+        # an option counts as used if any rank used it (a partition's options are
+        # read only on its ranks)
+        from solver.petscutil import unused_options
+        unused = set(unused_options())
+        if comm.size > 1:
+            unused = set.intersection(*comm.allgather(unused))
         if rank == 0:
             for line in summary(result, scene.output_file):
                 print(line, flush=True)
-            from solver.petscutil import unused_options
-            for name in unused_options():
+            for name in sorted(unused):
                 print(f"warning: PETSc option {name} was not used (misspelled, or a prefix that "
                       "names no partition?)", file=sys.stderr, flush=True)
         return 0
@@ -213,6 +218,9 @@ def start_petsc(petsc_args):
                 raise SceneError(f"{flag} needs a file name")
             if not Path(value).is_file():
                 raise SceneError(f"{flag} {value}: file not found")
+    if not any(a.startswith("-options_left") for a in petsc_args):
+        # PETSc's own end-of-run list looks at rank 0 alone; ours (main) at every rank
+        petsc_args = [*petsc_args, "-options_left", "no"]
     try:
         init(petsc_args)
     except Exception as e:                      # noqa: BLE001 -- petsc4py raises PETSc.Error
