@@ -98,5 +98,11 @@ def test_output_says_where_it_came_from(tmp_path):
         fields = list(f.attrs["field_files"])
     assert [Path(x).name for x in fields] == ["p_fields.xdmf", "p_fields.h5"]
     assert all(Path(x).is_file() for x in fields)
+    with h5py.File(fields[1]) as f:                   # meshio's data0, data1, ... carry names
+        labels = {k: dict(f[k].attrs) for k in f}
+    names = sorted(l["name"] for l in labels.values())
+    assert names == ["cells", "displacement", "displacement", "displacement", "points", "stress",
+                     "stress", "stress", "velocity", "velocity", "velocity"]
+    assert sorted({l["time"] for l in labels.values() if "time" in l}) == [0.0, 2e-7, 4e-7]
     for name in fields:
         assert f"[solver]   fields: {name}" in proc.stdout

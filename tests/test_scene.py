@@ -39,6 +39,11 @@ CASES = [
     ("probe_name_breaks_hdf5", lambda r: r["probes"][0].update(name="a/b"),
      ["probes[0].name", "'a/b'"]),
     ("empty_output_file", lambda r: r.update(output={"file": ""}), ["output.file", "file name"]),
+    ("empty_network_file", lambda r: r.update(model={"kind": "network", "file": ""}),
+     ["model.file", "file name"]),
+    ("generator_too_large", lambda r: r.update(model={"kind": "network", "generator": {
+        "name": "chain", "n": 10**9, "mass": 1.0, "stiffness": 1.0}}),
+     ["model.generator.n", "at most"]),
 ]
 
 

@@ -115,4 +115,34 @@ class FieldWriter:
     def close(self):
         for w in self.writers:
             w.__exit__(None, None, None)
+        if self.writers:
+            for xdmf in self.files[:self.n_open]:
+                name_datasets(xdmf)
         self.writers = []
+
+
+def name_datasets(xdmf: str):
+    """Give meshio's anonymous datasets (data0, data1, ...) in the HDF5 file
+    beside ``xdmf`` the names the XDMF gives them: attribute ``name``
+    (points, cells, displacement, velocity, stress) and, for fields, ``time``
+    and ``center`` (Node or Cell)."""
+    import xml.etree.ElementTree as ET
+
+    import h5py
+    labels = {}
+    for grid in ET.parse(xdmf).getroot().iter("Grid"):
+        time = grid.find("Time")
+        for tag, name in (("Geometry", "points"), ("Topology", "cells")):
+            for node in grid.findall(tag):
+                for item in node.iter("DataItem"):
+                    labels[item.text.split(":/")[-1]] = {"name": name}
+        for attr in grid.findall("Attribute"):
+            item = attr.find("DataItem")
+            label = {"name": attr.get("Name"), "center": attr.get("Center")}
+            if time is not None:
+                label["time"] = float(time.get("Value"))
+            labels[item.text.split(":/")[-1]] = label
+    with h5py.File(Path(xdmf).with_suffix(".h5"), "r+") as f:
+        for dataset, label in labels.items():
+            if dataset in f:
+                f[dataset].attrs.update(label)

@@ -50,6 +50,9 @@ def _springs(value, path):
     return tuple(out)
 
 
+MAX_NODES = 10**8          # generated networks: beyond this memory, not the model, is the limit
+
+
 @dataclass(frozen=True)
 class ChainGenerator:
     name: Literal["chain"] = key("generator name")
@@ -61,6 +64,10 @@ class ChainGenerator:
 
     def build(self):
         return generators.chain(self.n, self.mass, self.stiffness, self.left, self.right)
+
+    def validate(self, path):
+        if self.n > MAX_NODES:
+            fail(f"{path}.n", f"{self.n} masses: at most {MAX_NODES:.0e} are generated")
 
 
 @dataclass(frozen=True)
@@ -82,6 +89,9 @@ class MetamaterialGenerator:
     def validate(self, path):
         if self.M + self.N + self.Q < 1:
             fail(path, "M + N + Q must be at least 1")
+        if self.M + 2 * self.N + self.Q > MAX_NODES:
+            fail(path, f"M + 2 N + Q = {self.M + 2 * self.N + self.Q} masses: at most "
+                 f"{MAX_NODES:.0e} are generated")
 
 
 _generator = tagged("name", {"chain": ChainGenerator, "metamaterial": MetamaterialGenerator})
@@ -113,6 +123,8 @@ class NetworkModel:
         if len(given) != 1:
             fail(path, "give exactly one of masses + springs, generator, file "
                  f"({', '.join(given) or 'none'} given)")
+        if self.file is not None and not self.file.strip():
+            fail(f"{path}.file", f"{self.file!r}: needs a file name")
 
 
 @dataclass(frozen=True)
