@@ -76,3 +76,32 @@ def test_unused_options_consider_every_rank(tmp_path):
     warned = [line for line in proc.stderr.splitlines() if "not used" in line]
     assert len(warned) == 1 and "-fem_mat_typo" in warned[0]
     assert "Option left" not in proc.stderr and "-dem_mat_type" not in proc.stderr
+
+
+def test_solver_options_give_the_answer_or_are_refused(tmp_path):
+    """An iterative solve chosen by option gives the direct solve's answer (the
+    default rtol is 1e-12); a preconditioner alone under KSP preonly, which
+    would apply it once and call that a solution, is refused in one line."""
+    import h5py
+    import numpy as np
+    from conftest import raw_scene, write_scene
+    raw = raw_scene("metamaterial_implicit")
+    raw["reference"] = "none"
+    scene = write_scene(tmp_path / "mi.yaml", raw)
+    answers = {}
+    for label, opts in [("lu", []), ("cg", ["-fem_ksp_type", "cg", "-fem_pc_type", "jacobi"]),
+                        ("gmres", ["-fem_ksp_type", "gmres", "-fem_pc_type", "ilu"])]:
+        out = tmp_path / f"{label}.h5"
+        proc = run_cli([scene, "--set", f"output.file={out}", *opts])
+        assert proc.returncode == 0, proc.stderr
+        with h5py.File(out) as f:
+            answers[label] = f["probes/p550/displacement"][()]
+    scale = np.abs(answers["lu"]).max()
+    assert scale > 0
+    for label in ("cg", "gmres"):
+        assert np.abs(answers[label] - answers["lu"]).max() <= 1e-9 * scale, label
+    proc = run_cli([scene, "--set", f"output.file={tmp_path / 'j.h5'}", "-fem_pc_type", "jacobi"])
+    assert proc.returncode == 2
+    line, = proc.stderr.strip().splitlines()
+    assert line.startswith("error: ") and "-fem_pc_type jacobi" in line and "preonly" in line
+    assert not (tmp_path / "j.h5").exists()

@@ -13,7 +13,10 @@ the run with PETSc's reason.
 """
 from __future__ import annotations
 
-from solver.errors import RunFailed
+from solver.errors import RunFailed, SceneError
+
+# preconditioners that solve K_eff a = r exactly, so KSP preonly is a solve
+DIRECT_PCS = ("lu", "cholesky", "qr", "redundant", "svd")
 from solver.partitions.force import LinearForce
 from solver.partitions.partition import Partition
 from solver.petscutil import init, vec_on
@@ -65,8 +68,15 @@ class FemPartition(Partition):
         else:
             ksp.setType("cg")
             ksp.getPC().setType("gamg")
-            ksp.setTolerances(rtol=1e-12)
+        # tight enough that an iterative solve chosen by option gives the direct
+        # solve's answer to round-off (-<name>_ksp_rtol still overrides)
+        ksp.setTolerances(rtol=1e-12)
         ksp.setFromOptions()
+        pc = ksp.getPC().getType()
+        if ksp.getType() == "preonly" and pc not in DIRECT_PCS:
+            raise SceneError(f"-{self.prefix}pc_type {pc}: with KSP preonly the preconditioner "
+                             f"must solve exactly ({', '.join(DIRECT_PCS)}); add -{self.prefix}"
+                             "ksp_type cg (or gmres) to iterate with it")
         ksp.setUp()
         self.ksp = ksp
         self._reasons = {v: k for k, v in vars(P.KSP.ConvergedReason).items() if isinstance(v, int)}
