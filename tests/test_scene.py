@@ -181,3 +181,13 @@ def test_parsing_builds_nothing_binding_reads_the_model(tmp_path, monkeypatch):
     parse(Scene, raw)                                   # still only configuration
     with pytest.raises(SceneError, match="model.mesh: .*absent.msh: mesh file not found"):
         from_dict(raw)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["configs/six_dof.yaml", "--restart"], "error: --restart needs the output file of an earlier run"),
+    (["configs/six_dof.yaml", "--set"], "error: --set needs key.path=value"),
+    (["configs"], "error: no scene file (*.yaml) among the arguments (./run.sh --help lists the forms)"),
+])
+def test_command_line_mistakes_are_bad_input(args, message):
+    proc = run_cli(args)
+    assert proc.returncode == 2 and proc.stderr.strip() == message

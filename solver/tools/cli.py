@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import sys
 
-from solver.errors import LaunchError, SolverError
+from solver.errors import LaunchError, SceneError, SolverError
 
 USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--restart FILE] [PETSc options]
        ./run.sh test                          the test suite
@@ -36,11 +36,11 @@ def split_args(argv):
         if arg == "--restart" or arg.startswith("--restart="):
             restart = arg.split("=", 1)[1] if "=" in arg else next(it, None)
             if not restart:
-                raise SolverError("--restart needs the output file of an earlier run")
+                raise SceneError("--restart needs the output file of an earlier run")
         elif arg == "--set":
             value = next(it, None)
             if value is None:
-                raise SolverError("--set needs key.path=value")
+                raise SceneError("--set needs key.path=value")
             overrides.append(value)
         elif arg.startswith("--set="):
             overrides.append(arg[len("--set="):])
@@ -142,7 +142,8 @@ def main(argv=None) -> int:
     try:
         path, overrides, petsc_args, restart = split_args(argv)
         if path is None:
-            raise SolverError(f"no scene file (*.yaml) among the arguments\n{USAGE}")
+            raise SceneError("no scene file (*.yaml) among the arguments (./run.sh --help lists "
+                             "the forms)")
         from mpi4py import MPI
         comm = MPI.COMM_WORLD
         rank = comm.rank
