@@ -24,7 +24,7 @@ from solver.petscutil import init, vec_on
 
 class Exchange:
     """Refresh the externals of the ``receivers`` (partition indices; default
-    all) from their owners; every piece sends its owned (u, v, a).
+    all) from their owners; every piece sends the (u, v, a) of its sent nodes.
 
     ``dists``: the Distribution of every partition; ``ranks``: the world ranks
     of every partition (:class:`solver.partitions.ranks.Assignment`); ``parts``: this
@@ -43,29 +43,29 @@ class Exchange:
         g_base = np.full(n_nodes, -1, dtype=np.int64)     # owner piece's block start
         g_stride = np.zeros(n_nodes, dtype=np.int64)      # its sent DOFs (one field)
         g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's first DOF in its sent list
-        at, local_size = 0, 0
+        at, mine, local_size = 0, [], 0
         for r in range(comm.size):
             for p in ranks.partitions_on(r):
                 own = dists[p].pieces[ranks.ranks[p].index(r)].owned
-                sent = own[wanted[own]]
+                at_node = np.flatnonzero(wanted[own])
+                sent = own[at_node]
                 n_sent = dofmap.count(sent)
                 g_base[sent] = at
                 g_stride[sent] = n_sent
                 g_pos[sent] = dofmap.starts(sent)
                 at += 3 * n_sent
-                if r == comm.rank:
+                if r == comm.rank and n_sent:
+                    mine.append((p, at_node, sent))
                     local_size += 3 * n_sent
         self.G_arr = np.zeros(local_size)
         self.G = vec_on(self.G_arr, comm, size=(local_size, at))
         self._send, g_at = [], 0
-        for p in parts:
-            own = p.layout.owned
-            at_node = np.flatnonzero(wanted[own])           # owned come first in held order
-            if not at_node.size:
-                continue
-            idx = ranges(p.starts[at_node], counts[own[at_node]])
+        by_index = {p.layout.index: p for p in parts}
+        for index, at_node, sent in mine:                  # this rank's pieces, in rank order
+            part = by_index[index]
+            idx = ranges(part.starts[at_node], counts[sent])  # owned come first in held order
             g_view = self.G_arr[g_at:g_at + 3 * idx.size].reshape(3, idx.size)
-            self._send.append((p.state, idx, g_view))
+            self._send.append((part.state, idx, g_view))
             g_at += 3 * idx.size
         src, dst, blocks, x_at = [], [], [], 0
         for p in parts:

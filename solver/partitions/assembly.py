@@ -66,34 +66,21 @@ def triplets(block_sets, dofmap):
     return np.concatenate(r), np.concatenate(c), np.concatenate(v)
 
 
-def _insert(A, block_sets, number, lo, hi, scale, P):
-    """Add block sets by node blocks (``number``: node -> matrix node, rows lo..hi)."""
+def _insert(A, block_sets, index, lo, hi, scale, P, blocked=True):
+    """Add block sets, each element's rows lo..hi only.  ``index(conn)`` gives the
+    matrix indices of elements ``conn``: node blocks (``blocked``, inserted with
+    MatSetValuesBlocked) or scalar DOFs (MatSetValues)."""
     add = P.InsertMode.ADD_VALUES
+    setter = A.setValuesBlockedRCV if blocked else A.setValuesRCV
     for conn, Ke in block_sets:
         for s in range(0, len(conn), CHUNK):
-            c = number[conn[s:s + CHUNK]]
+            c = index(conn[s:s + CHUNK])
             rows = np.where((c >= lo) & (c < hi), c, -1).astype(P.IntType)
             keep = (rows >= 0).any(axis=1)
             if not keep.any():
                 continue
             ke = Ke[np.arange(s, s + len(c))[keep]]          # only the elements of my rows
-            A.setValuesBlockedRCV(rows[keep], c[keep].astype(P.IntType),
-                                  ke * scale if scale != 1.0 else ke, add)
-
-
-def _insert_scalar(A, block_sets, dofmap, first, lo, hi, scale, P):
-    """Add block sets DOF by DOF (``first``: node -> its first matrix DOF, rows lo..hi)."""
-    add = P.InsertMode.ADD_VALUES
-    for conn, Ke in block_sets:
-        for s in range(0, len(conn), CHUNK):
-            c = dofmap.element_dofs(conn[s:s + CHUNK], first)
-            rows = np.where((c >= lo) & (c < hi), c, -1).astype(P.IntType)
-            keep = (rows >= 0).any(axis=1)
-            if not keep.any():
-                continue
-            ke = Ke[np.arange(s, s + len(c))[keep]]
-            A.setValuesRCV(rows[keep], c[keep].astype(P.IntType),
-                           ke * scale if scale != 1.0 else ke, add)
+            setter(rows[keep], c[keep].astype(P.IntType), ke * scale if scale != 1.0 else ke, add)
 
 
 def default_type(dof, solved: bool = False) -> str:
@@ -112,8 +99,8 @@ def matrix(block_sets, number, n_local: int, n_global: int, first: int, dofmap, 
     :class:`~solver.model.dofmap.DofMap`, or a DOF count for all nodes); this
     rank holds the ``n_local`` nodes from node ``first``.  ``block_sets``: a
     callable that yields (conn, Ke) block sets (called twice); ``diagonal``:
-    values added to this rank's diagonal (e.g. the mass of K_eff); ``graph``:
-    (indptr, indices) node adjacency covering every block, which preallocates
+    values added to this rank's diagonal (e.g. the mass of K_eff); ``graph``: the
+    node :class:`~solver.model.graph.Graph` covering every block, which preallocates
     AIJ and BAIJ without a pass over the elements (otherwise PETSc's
     MATPREALLOCATOR does).  Nodes with equal DOF counts are inserted by blocks
     (block size = the count); mixed counts make a scalar AIJ matrix."""
@@ -197,10 +184,11 @@ def _matrix(block_sets, number, n_local, n_global, first, dof, comm, prefix, sca
             d_nnz, o_nnz = np.repeat(d_nnz * dof, dof), np.repeat(o_nnz * dof, dof)
         A.setPreallocationNNZ((d_nnz.astype(P.IntType), o_nnz.astype(P.IntType)))
     else:
-        _preallocate(A, comm, sizes, dof, lambda M: _insert(M, block_sets(), number, lo, hi, 1.0, P),
+        _preallocate(A, comm, sizes, dof,
+                     lambda M: _insert(M, block_sets(), number.__getitem__, lo, hi, 1.0, P),
                      np.arange(lo, hi, dtype=P.IntType), P)
-    return _finish(A, lambda M: _insert(M, block_sets(), number, lo, hi, scale, P), diagonal,
-                   wanted, prefix, P)
+    return _finish(A, lambda M: _insert(M, block_sets(), number.__getitem__, lo, hi, scale, P),
+                   diagonal, wanted, prefix, P)
 
 
 def _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, scale, diagonal,
@@ -222,20 +210,19 @@ def _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, sca
                          "scalar matrix type (aij, sell, dense)")
 
     def insert(M, s):
-        _insert_scalar(M, block_sets(), dofmap, dof_first, lo, hi, s, P)
+        _insert(M, block_sets(), lambda conn: dofmap.element_dofs(conn, dof_first), lo, hi, s, P,
+                blocked=False)
     _preallocate(A, comm, sizes, 1, lambda M: insert(M, 1.0), np.arange(lo, hi, dtype=P.IntType), P)
     return _finish(A, lambda M: insert(M, scale), diagonal, wanted, prefix, P)
 
 
 def _graph_nnz(graph, number, lo, hi):
     """Block nonzeros per block row in and off the diagonal block, rows lo..hi-1."""
-    indptr, indices = graph
     mine = np.flatnonzero((number >= lo) & (number < hi))
     nodes = np.empty(hi - lo, dtype=np.int64)
     nodes[number[mine] - lo] = mine
-    deg = indptr[nodes + 1] - indptr[nodes]
-    start = np.repeat(indptr[nodes] - np.concatenate([[0], np.cumsum(deg)[:-1]]), deg)
-    cols = number[indices[start + np.arange(deg.sum())]]
+    deg = graph.degree(nodes)
+    cols = number[graph.rows(nodes)]
     row = np.repeat(np.arange(hi - lo), deg)
     inside = cols >= 0
     diag = inside & (cols >= lo) & (cols < hi)

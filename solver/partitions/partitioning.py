@@ -17,7 +17,6 @@ from solver.partitions import distribute
 from solver.coupling import overlap
 from solver.partitions import ranks
 from solver.partitions import stability
-from solver.model.dofmap import ranges
 from solver.partitions.dem import DemPartition
 from solver.errors import SceneError, SolverError, StabilityError
 from solver.partitions.fem import FemPartition
@@ -171,11 +170,11 @@ def check_large(scene, parts, freqs, comm, say):
 
 def owned_nonzeros(graph, owned, dofmap) -> int:
     """Nonzeros of the owned rows of a partition's operator over the node graph
-    ``(indptr, indices)``: a node's DOFs times those of itself and its neighbours."""
-    indptr, indices = graph
+    (:class:`~solver.model.graph.Graph`): a node's DOFs times those of itself and
+    its neighbours."""
     counts = dofmap.counts
-    deg = indptr[owned + 1] - indptr[owned]
-    cols = indices[ranges(indptr[owned], deg)]
+    deg = graph.degree(owned)
+    cols = graph.rows(owned)
     reach = np.bincount(np.repeat(np.arange(owned.size), deg), weights=counts[cols],
                         minlength=owned.size) + counts[owned]
     return int((counts[owned] * reach).sum())
