@@ -20,7 +20,8 @@ from solver.scene import Coupling, Guard, Partition, Time
 
 def all_nodes(scene) -> tuple[int, ...]:
     """Every node a bound scene's partitions own (every node the body uses)."""
-    return tuple(sorted(n for p in scene.partitions for n in p.nodes))
+    return tuple(np.sort(np.concatenate([np.asarray(p.nodes, dtype=np.int64)
+                                         for p in scene.partitions])).tolist())
 
 
 def reference_scene(scene):

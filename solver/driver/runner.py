@@ -101,8 +101,8 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         fields.write(start * Dt)
     try:
         failure, done, loop_wall, interrupted = step_loop(
-            scene, scheme, probes, guard, say if rank == 0 else None, fields, start, checkpoint,
-            comm)
+            scene, scheme, probes, guard, say if rank == 0 else None, comm, fields, start,
+            checkpoint)
     finally:
         if fields:
             fields.close()
@@ -228,8 +228,7 @@ class Report:
         return RunResult(attrs, part_attrs, histories, self.guard.arrays())
 
 
-def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoint=None,
-              comm=None):
+def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, checkpoint=None):
     """Advance system steps from ``start`` to the end, the first guard failure,
     a partition's failure or an interrupt on any rank (all ranks stop at the
     same step, :mod:`solver.driver.stop`); ``checkpoint(k, wall)`` every
@@ -246,7 +245,7 @@ def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoin
     t_loop = last = clock()
     failure, k, interrupted = None, start, False
     failures = scheme.clocks.failures
-    with Stopper(comm if comm is not None else _SelfComm(), start) as stop:
+    with Stopper(comm, start) as stop:
         for s in range(start, n_sys):
             try:
                 scheme.step(s * Dt)
@@ -261,7 +260,7 @@ def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoin
                     k, failure, interrupted = ended
                     break
             failure = _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every,
-                                 clock() - t_loop)
+                                 t_loop)
             if failure:
                 break
             if progress and (k & 255) == 0 and clock() - last >= progress:
@@ -272,11 +271,7 @@ def step_loop(scene, scheme, probes, guard, say, fields=None, start=0, checkpoin
     return failure, k, clock() - t_loop, interrupted
 
 
-class _SelfComm:
-    size, rank = 1, 0
-
-
-def _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every, wall):
+def _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every, t_loop):
     """After system step ``k``: record probes, write fields, check the guard,
     write a checkpoint; a guard failure message or None."""
     n_sys, Dt = scene.n_system_steps, scene.system_dt
@@ -288,7 +283,7 @@ def _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every, wal
         if failure:
             return failure
     if ck_every and k % ck_every == 0 and k < n_sys:
-        checkpoint(k, wall)
+        checkpoint(k, time.perf_counter() - t_loop)
     return None
 
 

@@ -86,7 +86,7 @@ def _owned_nodes(scene, data, n) -> list[tuple[int, ...]]:
                 fail(f"partitions[{p}].nodes",
                      f"node {node} is owned by partitions '{first}' and '{part.name}'")
         owner[nodes] = p
-        out.append(tuple(int(x) for x in nodes))
+        out.append(tuple(nodes.tolist()))
     used = np.ones(n, bool)
     if scene.model.kind == "continuum":
         # mesh nodes no body cell uses (a geometry kernel's centre point, say) are left out

@@ -39,16 +39,10 @@ class CellStiffness:
         return CellStiffness(self.family, self.points, self.conn[mask], self.material)
 
 
-def element_dofs(conn: np.ndarray, dofmap) -> np.ndarray:
-    """Model DOFs of every element [n_el, nd] (``dofmap``: a DofMap or a DOF count)."""
-    if isinstance(dofmap, (int, np.integer)):
-        return (conn[:, :, None] * dofmap + np.arange(dofmap)).reshape(len(conn), -1)
-    return dofmap.element_dofs(conn, dofmap.offsets[:-1])
-
-
 def stiffness_triplets(Ke: np.ndarray, conn: np.ndarray, dofmap):
-    """COO (rows, cols, values) of element matrices Ke [n_el, nd, nd]."""
-    dofs = element_dofs(conn, dofmap)
+    """COO (rows, cols, values) of element matrices Ke [n_el, nd, nd] over the
+    model DOFs of ``dofmap``."""
+    dofs = dofmap.element_dofs(conn, dofmap.offsets[:-1])
     nd = dofs.shape[1]
     rows = np.repeat(dofs, nd, axis=1).ravel()
     cols = np.tile(dofs, (1, nd)).ravel()

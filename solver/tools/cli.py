@@ -177,10 +177,7 @@ def main(argv=None) -> int:
             # return: the output is written, so end with MPI_Abort(130)
             from solver.driver.stop import abort
             comm.Barrier()
-            if rank == 0:
-                abort(comm, None, 130)
-            import time
-            time.sleep(10)
+            abort(comm, None, 130)
         return e.exit_code
     except KeyboardInterrupt:
         return stop_everyone(comm, "interrupted before stepping; no output written", 130)
@@ -211,7 +208,6 @@ def start_petsc(petsc_args):
     (a missing -options_file, a malformed option) is one line, exit 2."""
     from pathlib import Path
 
-    from solver.errors import SceneError
     from solver.petscutil import init
     for flag, value in zip(petsc_args, list(petsc_args[1:]) + [None]):
         if flag in ("-options_file", "-options_file_yaml"):
