@@ -16,11 +16,14 @@ SUPPORT = {
                  "or dem+verlet; any number of ranks; external (of the explicit side): taylor, "
                  "layers, literal",
     "gc": "exactly two partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank",
+    "transition": "continuum models with model.lattice.transition: one fem+explicit partition "
+                  "with the largest ratio (the FE step) and one dem+verlet partition; any number "
+                  "of ranks; external: taylor",
 }
 
 
 def scheme_class(name: str):
-    from solver.coupling.system_step import ConcurrentOverlap, Staggered
+    from solver.coupling.system_step import ConcurrentOverlap, Staggered, TransitionZone
     from solver.coupling.gc import GravouilCombescure
     return {"overlap": ConcurrentOverlap, "staggered": Staggered,
-            "gc": GravouilCombescure}[name]
+            "gc": GravouilCombescure, "transition": TransitionZone}[name]

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from time import perf_counter as _clock
 
+import numpy as np
+
 from solver.coupling.exchange import Exchange
 from solver.petscutil import Stage, init
 
@@ -159,9 +161,14 @@ class Staggered(ConcurrentOverlap):
         return ["prescribed" if p.integrator == "implicit" else scene.coupling.external
                 for p in scene.partitions]
 
+    @staticmethod
+    def _solved_last(scene) -> int:
+        """The partition that solves after the other side's sub-steps."""
+        return next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
+
     def __init__(self, comm, dists, ranks, parts, dofmap, scene):
         self.parts = parts
-        i = next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
+        i = self._solved_last(scene)
         local = {p.layout.index: p for p in parts}
         self.implicit = local.get(i)
         self.explicit = local.get(1 - i)
@@ -190,3 +197,71 @@ class Staggered(ConcurrentOverlap):
         if imp:
             self.clocks.part(imp, self._solve_implicit, t0 + imp.dt)
         self.clocks.exchange(self.to_explicit)
+
+
+class TransitionZone(Staggered):
+    """``coupling.scheme: transition`` (seed 003, Fig. 2): the explicit FE
+    partition steps fdt = N dt, the dem partition N steps of dt per FE step.
+
+    Per system step: the FE partition predicts u_n+1 = u_n + fdt v_n + fdt^2/2 a_n
+    (explicit Newmark's displacement is its predictor); the dem partition
+    sub-cycles with the band nodes (its external nodes, which carry the band
+    particles) following ``coupling.band_motion``; the particles' state at
+    t_n+1 goes to the FE partition, which evaluates the carried bond forces
+    (eq. 3) with them and finishes its step; the band nodes' new state goes
+    back.  With ``predictor`` the band particles move on the FE's own path and
+    reach the FE's u_n+1 exactly, so both sides see the same band at every
+    sync; ``velocity`` (u + s v, eq. 4 read literally) and ``hold`` jump there
+    (docs/transition.md compares them)."""
+
+    name = "transition"
+
+    @staticmethod
+    def treatments(scene) -> list[str]:
+        return ["prescribed" if p.method == "fem" else "taylor" for p in scene.partitions]
+
+    @staticmethod
+    def _solved_last(scene) -> int:
+        return next(k for k, p in enumerate(scene.partitions) if p.method == "fem")
+
+    def __init__(self, comm, dists, ranks, parts, dofmap, scene):
+        super().__init__(comm, dists, ranks, parts, dofmap, scene)
+        motion = scene.coupling.band_motion
+        ext, fe = self.explicit, self.implicit
+        self._band = None
+        if ext is not None and motion != "predictor":
+            n = ext.n_own
+            self._band = ext.A[n:] if motion == "velocity" else ext.state[1:, n:]
+        if fe is not None:
+            # the particles' exchanged state at t_n+1 is what the FE forces use
+            # (explicit Newmark evaluates its residual at the predicted u~, v~)
+            n = fe.n_own
+            self._particles = ((fe.U[n:], fe.work_array("ut")[n:]),
+                               (fe.V[n:], fe.work_array("vt")[n:]))
+
+    def describe(self) -> str:
+        return ("transition-zone scheme (seed 003): dem sub-steps over the band's motion, then the "
+                "explicit FE step with the particles' forces on its band nodes")
+
+    def _finish_fe(self, t1):
+        for exchanged, predicted in self._particles:
+            np.copyto(predicted, exchanged)
+        self._solve_implicit(t1)
+
+    def step(self, t0: float):
+        fe, dem = self.implicit, self.explicit
+        if fe:
+            self.clocks.part(fe, fe.integrator.predict, fe)
+        if dem:
+            self.clocks.part(dem, dem.advance, t0)
+        self.clocks.exchange(self.to_implicit)
+        if fe:
+            self.clocks.part(fe, self._finish_fe, t0 + fe.dt)
+        self.clocks.exchange(self.to_explicit)
+        if self._band is not None:
+            self._band[...] = 0.0          # velocity: a = 0; hold: v = a = 0 until the next sync
+
+    def initialise(self, model):
+        super().initialise(model)
+        if self._band is not None:
+            self._band[...] = 0.0

@@ -28,3 +28,33 @@ def history(scene, t, x):
     u = np.cumsum(0.5 * (v + np.concatenate([[0.0], v[:-1]])) * dt)   # trapezoidal integral
     valid = np.asarray(t) < (2 * ref.length - x) / c
     return u, v, valid
+
+
+def stress(scene, t, x):
+    """sigma_xx of the 1D wave at ``x``: -rho c v (compression for a push)."""
+    mat = scene.model.material
+    _, v, valid = history(scene, t, x)
+    return -mat.rho * np.sqrt(mat.E / mat.rho) * v, valid
+
+
+def arrival(t, s, level=0.5):
+    """First time |s| reaches ``level`` of its largest value (linear between samples)."""
+    a = np.abs(np.asarray(s))
+    if not a.size or a.max() == 0:
+        return float("nan")
+    thr = level * a.max()
+    k = int(np.argmax(a >= thr))
+    if k == 0:
+        return float(t[0])
+    return float(t[k - 1] + (thr - a[k - 1]) / (a[k] - a[k - 1]) * (t[k] - t[k - 1]))
+
+
+def stress_errors(t, s, ref, valid, x, c):
+    """Arrival (50 % crossing) error relative to the travel time x/c, and peak
+    error relative to the reference peak, over the valid window."""
+    t, s, ref = np.asarray(t)[valid], np.asarray(s)[valid], np.asarray(ref)[valid]
+    peak_ref = np.abs(ref).max() if ref.size else 0.0
+    if peak_ref == 0:
+        return float("nan"), float("nan")
+    travel = max(x / c, t[1] - t[0])
+    return ((arrival(t, s) - arrival(t, ref)) / travel, (np.abs(s).max() - peak_ref) / peak_ref)

@@ -58,8 +58,11 @@ def add_reference(result, mdl, scene, comm, say):
             from solver.driver import barwave
             refs = {}
             for p in scene.probes:
-                u, _, valid = barwave.history(scene, t_axis, float(mdl.points[p.node][0]))
+                x = float(mdl.points[p.node][0])
+                u, _, valid = barwave.history(scene, t_axis, x)
                 refs[p.name] = np.where(valid, u, np.nan)
+                sig, _ = barwave.stress(scene, t_axis, x)
+                refs[f"{p.name} stress"] = np.where(valid, sig, np.nan)
         else:
             refs = monolithic.history(scene, t_axis, say)
     refs = comm.bcast(refs)
@@ -68,6 +71,14 @@ def add_reference(result, mdl, scene, comm, say):
         ref = refs[probe.name]
         pr["reference_displacement"] = ref
         ok = np.isfinite(ref)                 # bar_wave: only until the first reflection
+        if f"{probe.name} stress" in refs and "stress" in pr and probe.component == 0:
+            from solver.driver import barwave
+            mat = scene.model.material
+            pr["reference_stress"] = refs[f"{probe.name} stress"]
+            arrive, peak = barwave.stress_errors(pr["t"], pr["stress"], pr["reference_stress"], ok,
+                                                 float(mdl.points[probe.node][0]),
+                                                 np.sqrt(mat.E / mat.rho))
+            pr["attrs"].update(stress_arrival_error=arrive, stress_peak_error=peak)
         x, r = pr["displacement"][ok], ref[ok]
         scale = float(np.max(np.abs(r))) if r.size else 0.0
         if scale <= ZERO_REFERENCE:

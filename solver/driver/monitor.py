@@ -17,12 +17,16 @@ import numpy as np
 
 
 class Probes:
-    def __init__(self, probes, parts, owner, n_steps: int, points=None):
+    def __init__(self, probes, parts, owner, n_steps: int, points=None, stress=None):
         """``parts``: this rank's partition pieces; a probe is recorded by the
         piece that owns its node (on exactly one rank).  ``points``: node
-        coordinates (continua), written with the histories."""
+        coordinates (continua), written with the histories.  ``stress``: a
+        :class:`solver.driver.stress.StressProbes` (continua), whose sigma_cc
+        histories are recorded too."""
         self._rec = []
         self.points = points
+        self.stress = stress
+        self._sigma = {p.name: np.empty(n_steps + 1) for p in probes} if stress else {}
         for probe in probes:
             part = next((p for p in parts if p.layout.index == owner[probe.node] and
                          0 <= p.layout.local(np.array([probe.node]))[0] < p.layout.n_owned), None)
@@ -34,25 +38,39 @@ class Probes:
         self.record(0)
 
     def restore(self, saved: dict, k: int):
-        """Histories of a checkpoint up to system step ``k`` (name -> (u, v))."""
+        """Histories of a checkpoint up to system step ``k`` (name -> (u, v[, sigma]))."""
         for probe, _, _, _, _, bu, bv in self._rec:
-            u, v = saved[probe.name]
+            u, v, *sigma = saved[probe.name]
             bu[:k + 1] = u[:k + 1]
             bv[:k + 1] = v[:k + 1]
+            if sigma and probe.name in self._sigma:
+                self._sigma[probe.name][:k + 1] = sigma[0][:k + 1]
 
     def record(self, k: int):
         for _, _, U, V, i, bu, bv in self._rec:
             bu[k] = U[i]
             bv[k] = V[i]
+        if self.stress is not None:
+            for name, value in self.stress.values().items():
+                self._sigma[name][k] = value
 
     def histories(self, t_axis, done: int) -> dict:
         """This rank's probes up to system step ``done``."""
-        return {probe.name: {"t": t_axis[:done + 1], "displacement": bu[:done + 1],
-                             "velocity": bv[:done + 1], "attrs": self._attrs(probe, part)}
-                for probe, part, _, _, _, bu, bv in self._rec}
+        out = {}
+        for probe, part, _, _, _, bu, bv in self._rec:
+            out[probe.name] = {"t": t_axis[:done + 1], "displacement": bu[:done + 1],
+                               "velocity": bv[:done + 1], "attrs": self._attrs(probe, part)}
+            if probe.name in self._sigma:
+                out[probe.name]["stress"] = self._sigma[probe.name][:done + 1]
+        return out
 
     def _attrs(self, probe, part) -> dict:
         attrs = {"node": probe.node, "component": probe.component, "partition": part.name}
+        if self.stress is not None:
+            axis = "xyz"[probe.component]
+            attrs["stress"] = (f"sigma_{axis}{axis} [Pa]: " +
+                               ("bond (virial) stress" if part.method == "dem" else
+                                "average of the node's FE cell stresses"))
         if self.points is not None:
             xyz = np.asarray(self.points[probe.node], dtype=float)
             attrs["coordinates"] = xyz                 # where the probe records

@@ -11,7 +11,8 @@ Layout::
                        wall_time_<partition>
     /partitions/<name> attrs: method, integrator, ratio, dt, steps, wall_time,
                        n_owned, n_external, layers, omega_max, critical_step
-    /probes/<name>/t, displacement, velocity [, reference_displacement]
+    /probes/<name>/t, displacement, velocity [, stress (continua), reference_displacement,
+                    reference_stress (bar_wave)]
                        attrs: node, component, partition [, max_rel_error,
                        rms_rel_error]
     /energy/t, kinetic, strain, external_work, total
@@ -59,7 +60,8 @@ def write(path: str, result, checkpoint=None) -> None:
                     g.attrs[k] = v
             for name, probe in result.probes.items():
                 g = f.create_group(f"probes/{name}")
-                for k in ("t", "displacement", "velocity", "reference_displacement"):
+                for k in ("t", "displacement", "velocity", "stress", "reference_displacement",
+                          "reference_stress"):
                     if k in probe:
                         g.create_dataset(k, data=np.asarray(probe[k]))
                 for k, v in probe.get("attrs", {}).items():

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from solver.model.loads import HalfSine, Sine, Tabulated
+from solver.model.loads import HalfSine, Rectangular, Sine, Tabulated
 
 ZERO = 1e-9        # omega below this (relative to the largest) is a rigid mode
 
@@ -78,6 +78,21 @@ def half_sine_response(g: HalfSine, w, t):
     return q, qd
 
 
+def rectangular_response(g: Rectangular, w, t):
+    q = np.zeros((t.size, w.size))
+    qd = np.zeros_like(q)
+    tau = t - g.start
+    on = (tau >= 0) & (tau < g.duration)
+    zero = np.zeros(w.size)
+    if on.any():
+        q[on], qd[on] = ramp_response(zero, zero, g.amplitude, 0.0, w, tau[on])
+    after = tau >= g.duration
+    if after.any():
+        qT, qdT = ramp_response(zero, zero, g.amplitude, 0.0, w, np.array([g.duration]))
+        q[after], qd[after] = free(qT[0], qdT[0], w, tau[after] - g.duration)
+    return q, qd
+
+
 def ramp_response(q0, qd0, c, s, w, tau):
     """q, q' from (q0, qd0) under c + s*tau over local time tau."""
     q, qd = free(q0, qd0, w, tau)
@@ -118,6 +133,8 @@ def forced_response(g, w, t):
         return half_sine_response(g, w, t)
     if isinstance(g, Tabulated):
         return tabulated_response(g, w, t)
+    if isinstance(g, Rectangular):
+        return rectangular_response(g, w, t)
     raise TypeError(f"no exact response for {type(g).__name__}")
 
 

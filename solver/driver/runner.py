@@ -70,7 +70,9 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
-    probes = Probes(scene.probes, parts, owner, n_sys, getattr(mdl, "points", None))
+    from solver.driver import stress
+    probes = Probes(scene.probes, parts, owner, n_sys, getattr(mdl, "points", None),
+                    stress.build(scene, mdl, parts))
     for probe in scene.probes:
         if probe.at is not None:
             xyz = np.asarray(mdl.points[probe.node], dtype=float)
@@ -87,7 +89,8 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
     from solver.driver import provenance as prov
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start)
-    report.extra = {"versions": prov.versions(), "commit": prov.commit(), **(provenance or {})}
+    report.extra = {"versions": prov.versions(), "commit": prov.commit(), **model_counts(mdl, comm),
+                    **(provenance or {})}
     report.setup_wall = time.perf_counter() - t_start
     spec = scene.output.checkpoint if scene.output else None
     checkpoint = Checkpoint(spec.every, scene, parts, guard, comm, report) if spec else None
@@ -228,6 +231,18 @@ class Report:
         return RunResult(attrs, part_attrs, histories, self.guard.arrays())
 
 
+def model_counts(mdl, comm) -> dict:
+    """FE cells and DEM particles of a continuum model (rank 0 holds it whole)."""
+    counts = {}
+    if comm.rank == 0 and hasattr(mdl, "cells"):
+        counts["fe_cells"] = sum(len(conn) for _, conn, _ in mdl.cells)
+        zone = mdl.zone
+        if zone is not None:
+            counts["particles"] = zone.n_core + len(zone.band_points)
+            counts["band_particles"] = len(zone.band_points)
+    return comm.bcast(counts) if comm.size > 1 else counts
+
+
 def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, checkpoint=None):
     """Advance system steps from ``start`` to the end, the first guard failure,
     a partition's failure or an interrupt on any rank (all ranks stop at the
@@ -325,6 +340,10 @@ def summary(result, output_file) -> list[str]:
         elif "max_rel_error" in at:
             lines.append(f"[solver]   probe {name}: max relative error {at['max_rel_error']:.3e}, "
                          f"RMS relative error {at['rms_rel_error']:.3e} (reference: {a['reference']})")
+        if "stress_peak_error" in at:
+            lines.append(f"[solver]   probe {name}: stress arrival error "
+                         f"{100 * at['stress_arrival_error']:+.2f} % of the travel time, peak "
+                         f"error {100 * at['stress_peak_error']:+.2f} %")
     lines.append(f"[solver]   output: {output_file}")
     for name in a.get("field_files", ()):
         lines.append(f"[solver]   fields: {name}")

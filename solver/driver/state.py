@@ -174,7 +174,9 @@ def _read(path: str, scene) -> dict:
             guard = {"series": {k2: gg[k2][()].tolist() for k2 in gg},
                      "initial": float(gg.attrs["initial"]),
                      "max_work": float(gg.attrs["max_work"])}
-            probes = {name: (f[f"probes/{name}/displacement"][()], f[f"probes/{name}/velocity"][()])
+            probes = {name: (f[f"probes/{name}/displacement"][()], f[f"probes/{name}/velocity"][()],
+                             *((f[f"probes/{name}/stress"][()],) if "stress" in f[f"probes/{name}"]
+                               else ()))
                       for name in f.get("probes", {})}
     except SceneError:
         raise

@@ -26,10 +26,13 @@ def bind(scene):
     """``scene`` checked against its model data, groups and probe points resolved."""
     data = model_data.read(scene.model)
     continuum = scene.model.kind == "continuum"
+    zone = None
     if continuum:
-        _check_continuum(scene.model, data)
+        zone = _check_continuum(scene.model, data)
     n, d = model_data.n_nodes(data), dof(scene, data)
-    owned = _owned_nodes(scene, data, n)
+    if zone is not None:
+        n += zone.n_core
+    owned = _owned_nodes(scene, data, n, zone)
     for i, ld in enumerate(scene.loads):
         if ld.group is not None:
             data.group(ld.group, f"loads[{i}].group")
@@ -43,7 +46,7 @@ def bind(scene):
     probes = []
     for i, probe in enumerate(scene.probes):
         node = probe.node if probe.node is not None else snap(scene.model, data, probe.at,
-                                                              f"probes[{i}].at")
+                                                              f"probes[{i}].at", zone)
         _check_dof(f"probes[{i}]", node, probe.component, n, d)
         probes.append(dataclasses.replace(probe, node=node))
     parts = tuple(dataclasses.replace(p, nodes=nodes, group=None)
@@ -61,18 +64,43 @@ def _check_continuum(spec, mesh):
         wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain")
         fail("model.material.kind", f"{spec.material.kind} does not fit a {mesh.dim}D mesh "
              f"(use {wants})")
+    if spec.lattice is not None and spec.lattice.transition:
+        from solver.model import transition
+        return transition.of(spec, mesh)
+    return None
 
 
-def _owned_nodes(scene, data, n) -> list[tuple[int, ...]]:
+def _used(data, body, zone, n):
+    """Nodes the model steps: the nodes of the body's cells (without a
+    transition band), or of its FE and band cells and the core particles."""
+    used = np.zeros(n, bool)
+    cells = body.cells if zone is None else {**zone.fe_cells, **{f"band {k}": c for k, c in
+                                                                 zone.band_cells.items()}}
+    for conn in cells.values():
+        used[conn] = True
+    if zone is not None:
+        used[zone.core_ids] = True
+    return used
+
+
+def _owned_nodes(scene, data, n, zone=None) -> list[tuple[int, ...]]:
     """Node ids of every partition (a node in two groups stays with the earlier
-    partition); every node in range and owned exactly once."""
+    partition); every node in range and owned exactly once.  With a transition
+    band, a dem partition owns the core particles and groups keep only the
+    mesh nodes of FE and band cells."""
     owner = np.full(n, -1, dtype=np.int64)
+    continuum = scene.model.kind == "continuum"
+    used = _used(data, data.group(scene.model.body, "model.body"), zone, n) if continuum else \
+        np.ones(n, bool)
     out = []
     for p, part in enumerate(scene.partitions):
-        if part.group is not None:
+        if zone is not None and part.method == "dem":
+            nodes = zone.core_ids
+            nodes = nodes[owner[nodes] < 0]
+        elif part.group is not None:
             nodes = data.group(part.group, f"partitions[{p}].group").nodes
             nodes = np.asarray(nodes, dtype=np.int64)
-            nodes = nodes[owner[nodes] < 0]
+            nodes = nodes[(owner[nodes] < 0) & used[nodes]]
         else:
             nodes = np.asarray(part.nodes, dtype=np.int64)
             bad = nodes[nodes >= n]
@@ -87,32 +115,37 @@ def _owned_nodes(scene, data, n) -> list[tuple[int, ...]]:
                      f"node {node} is owned by partitions '{first}' and '{part.name}'")
         owner[nodes] = p
         out.append(tuple(nodes.tolist()))
-    used = np.ones(n, bool)
-    if scene.model.kind == "continuum":
-        # mesh nodes no body cell uses (a geometry kernel's centre point, say) are left out
-        used[:] = False
-        for conn in data.group(scene.model.body, "model.body").cells.values():
-            used[conn] = True
+    # mesh nodes no body cell uses (a geometry kernel's centre point, say) are left out
     orphans = np.flatnonzero((owner < 0) & used)
     if orphans.size:
         fail("partitions", f"nodes {orphans[:10].tolist()} are owned by no partition")
     return out
 
 
-def snap(spec, mesh, at, key) -> int:
+def snap(spec, mesh, at, key, zone=None) -> int:
     """The body node nearest to point ``at``; refused when the point is farther
-    from it than the cells around that node reach (outside the body)."""
+    from it than the cells around that node reach (outside the body).  With a
+    transition band: the nearest node of the FE cells or core particle (which
+    reaches one lattice diagonal)."""
     pts = mesh.points
     dim = pts.shape[1]
     if len(at) < dim or any(x != 0 for x in at[dim:]):
         fail(key, f"{list(at)}: a point of the {dim}D mesh needs {dim} coordinates")
-    body = list(mesh.group(spec.body, "model.body").cells.values())
-    nodes = np.unique(np.concatenate([c.ravel() for c in body]))
+    body = list(mesh.group(spec.body, "model.body").cells.values() if zone is None else
+                zone.fe_cells.values())
+    nodes = np.unique(np.concatenate([c.ravel() for c in body])) if body else np.zeros(0, int)
     p = np.asarray(at[:dim], dtype=float)
+    if zone is not None:
+        pts = np.concatenate([pts, zone.points])
+        nodes = np.concatenate([nodes, zone.core_ids])
     dist = np.linalg.norm(pts[nodes] - p, axis=1)
     node = int(nodes[np.argmin(dist)])
-    reach = max((float(np.linalg.norm(pts[c[np.any(c == node, axis=1)]] - pts[node], axis=2).max())
-                 for c in body if np.any(c == node)), default=0.0)
+    if zone is not None and node >= zone.n_mesh:
+        reach = zone.spacing * np.sqrt(dim)
+    else:
+        reach = max((float(np.linalg.norm(pts[c[np.any(c == node, axis=1)]] - pts[node],
+                                          axis=2).max())
+                     for c in body if np.any(c == node)), default=0.0)
     if dist.min() > reach:
         fail(key, f"{list(at)} is {dist.min():.3g} m from the nearest body node {node} at "
                   f"{pts[node].tolist()}, farther than its cells reach ({reach:.3g} m): outside "

@@ -35,6 +35,9 @@ class ContinuumArrays:
     v0: np.ndarray
     bonds: tuple = ()            # (i, j, k) lattice bonds on mesh nodes, for dem partitions
     overlap_cells: list = ()     # (family, conn, Ke) of mesh cells both sides share
+    carried: list = ()           # ("bond", conn, RankOneBonds): bonds of band particles on nodes
+    zone: object = None          # the Transition (model.lattice.transition), else None
+    material_D: np.ndarray = None  # elasticity matrix (Voigt), for stresses
 
     @property
     def n_nodes(self) -> int:
@@ -74,7 +77,8 @@ class ContinuumArrays:
             keep = inh[bi] | inh[bj]
             bonds = (bi[keep], bj[keep], k[keep])
         return dataclasses.replace(self, cells=touching(self.cells),
-                                   overlap_cells=touching(self.overlap_cells), bonds=bonds)
+                                   overlap_cells=touching(self.overlap_cells), bonds=bonds,
+                                   carried=touching(self.carried))
 
     def _cell_blocks(self, cells, held) -> list:
         inh = self._held(held)
@@ -88,8 +92,9 @@ class ContinuumArrays:
         return out
 
     def stiffness_blocks(self, held: np.ndarray) -> list:
-        """Block sets (global node ids) of the body cells whose nodes are all held."""
-        return self._cell_blocks(self.cells, held)
+        """Block sets (global node ids) of the body cells whose nodes are all held
+        (with a transition band, also the bonds carried to its nodes)."""
+        return self._cell_blocks(self.cells, held) + self._cell_blocks(self.carried, held)
 
     def bond_blocks(self, held: np.ndarray) -> list:
         """Block sets of the lattice bonds whose ends are held (k n n^T [[1, -1],
@@ -101,7 +106,8 @@ class ContinuumArrays:
             keep = inh[bi] & inh[bj]
             conn = np.stack([bi[keep], bj[keep]], axis=1)
             out.append((conn, BondStiffness(self.points, conn, k[keep])))
-        return out + self._cell_blocks(self.overlap_cells, held)
+        return out + self._cell_blocks(self.overlap_cells, held) + \
+            self._cell_blocks(self.carried, held)
 
     def graph(self) -> Graph:
         """Adjacent nodes of every node (through cells or bonds).  Edge keys
@@ -109,13 +115,14 @@ class ContinuumArrays:
         stay small on large meshes."""
         n = np.int64(self.n_nodes)
         keys = []
-        for _, conn, _ in self.cells:
+        for _, conn, _ in list(self.cells) + list(self.carried):
             k = conn.shape[1]
             off = ~np.eye(k, dtype=bool)
             for s in range(0, len(conn), 32768):
                 c = conn[s:s + 32768].astype(np.int64)
-                key = (c[:, :, None] * n + c[:, None, :])[:, off]
-                keys.append(np.unique(key))
+                pair = (c[:, :, None], c[:, None, :])
+                key = (pair[0] * n + pair[1])[:, off]
+                keys.append(np.unique(key[(pair[0] != pair[1])[:, off]]))  # carried bonds repeat nodes
         if self.bonds:
             bi, bj, _ = self.bonds
             keys.append(np.concatenate([bi * n + bj, bj * n + bi]))
@@ -178,8 +185,9 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     lo, hi = np.maximum(lo, pts.min(axis=0)), np.minimum(hi, pts.max(axis=0))
     shape = np.rint((hi - lo) / a).astype(int) + 1
     try:
-        lat = (square(lo, shape, a, mat.E, mat.nu, mat.rho, mat.thickness, mat.kind)
-               if mesh.dim == 2 else cubic(lo, shape, a, mat.E, mat.nu, mat.rho))
+        E = spec.E or mat.E
+        lat = (square(lo, shape, a, E, mat.nu, mat.rho, mat.thickness, mat.kind)
+               if mesh.dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
     except ValueError as e:
         raise SceneError(f"model.lattice: {e}") from None
     # pair every lattice site with the mesh node at the same place
@@ -238,14 +246,50 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
     mesh = model_data.read(spec)
     dim = mesh.dim
     mat = spec.material.elastic()
+    zone = None
+    if spec.lattice is not None and spec.lattice.transition:
+        from solver.model import transition
+        zone = transition.of(spec, mesh)
     cells, mass = [], np.zeros(len(mesh.points))
-    for fam, conn, Ke, me in group_matrices(mesh, spec.body, mat, "model.body"):
+    for fam, conn, Ke, me in group_matrices(mesh, spec.body, mat, "model.body",
+                                            only=None if zone is None else zone.fe_cells):
         cells.append((fam, conn, Ke))
         mass += nodal(me, conn, len(mesh.points))
-    fixed = np.zeros(len(mesh.points) * dim, bool)
-    for name in spec.fixed:
+    if zone is not None:
+        return _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
+    fixed = _fixed(scene, mesh, len(mesh.points))
+    loads = _loads(scene, mesh)
+    n = len(mesh.points) * dim
+    bonds, overlap = (), ()
+    if spec.lattice is not None:
+        bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells, reach)
+    return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
+                           np.zeros(n), bonds, overlap, material_D=mat.D())
+
+
+def _fixed(scene, mesh, n_nodes):
+    dim = mesh.dim
+    fixed = np.zeros(n_nodes * dim, bool)
+    for name in scene.model.fixed:
         nodes = mesh.group(name, "model.fixed").nodes
         fixed[(nodes[:, None] * dim + np.arange(dim)).ravel()] = True
+    return fixed
+
+
+def _with_zone(scene, mesh, zone, cells, mass):
+    """The model of a transition band: mesh nodes, then the core particles."""
+    dim = mesh.dim
+    n_nodes = zone.n_mesh + zone.n_core
+    n = n_nodes * dim
+    return ContinuumArrays(dim, np.concatenate([mesh.points, zone.points]),
+                           np.concatenate([mass, zone.mass]), cells,
+                           _fixed(scene, mesh, n_nodes), tuple(_loads(scene, mesh)),
+                           np.zeros(n), np.zeros(n), zone.bonds, (), zone.blocks, zone,
+                           scene.model.material.elastic().D())
+
+
+def _loads(scene, mesh):
+    dim = mesh.dim
     loads = []
     for i, load in enumerate(scene.loads):
         g = load_function(load)
@@ -258,9 +302,4 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
                         loads.append(PointLoad(int(node) * dim + c, g, float(w[node] * direction[c])))
         else:
             loads.append(PointLoad(load.node * dim + load.component, g))
-    n = len(mesh.points) * dim
-    bonds, overlap = (), ()
-    if spec.lattice is not None:
-        bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells, reach)
-    return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
-                           np.zeros(n), bonds, overlap)
+    return loads

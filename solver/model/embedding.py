@@ -14,7 +14,7 @@ the shape-function weights N_i(xi) of its cell's nodes.  With them:
 Because the weights are a partition of unity and reproduce linear fields
 (sum_i N_i X_i = x_p), the transfer conserves total force, moment, mass and
 momentum, and carries rigid-body motions exactly (tests/test_embedding.py).
-Pure numpy; this is the geometric core of issue 9, not yet wired into a scene.
+Pure numpy; :mod:`solver.model.transition` builds the transition zone on it.
 """
 from __future__ import annotations
 
@@ -82,11 +82,10 @@ def local_coordinates(family: str, X: np.ndarray, x: np.ndarray) -> np.ndarray:
     return xi
 
 
-def locate(points: np.ndarray, conn: np.ndarray, family: str, particles: np.ndarray,
-           where: str = "particles") -> Embedding:
-    """The cell of ``conn`` (node ids into ``points``) holding each particle.
-    A particle on a shared face goes to the lowest-numbered cell; a particle in
-    no cell is refused, naming it."""
+def find(points: np.ndarray, conn: np.ndarray, family: str, particles: np.ndarray):
+    """(cell [n_p], xi [n_p, dim]) of every particle in the cells ``conn`` (node
+    ids into ``points``), cell -1 for a particle in none.  A particle on a
+    shared face goes to the lowest-numbered cell."""
     points = np.asarray(points, dtype=float)
     particles = np.asarray(particles, dtype=float)
     X = points[conn]                                        # [n_c, k, dim]
@@ -109,9 +108,24 @@ def locate(points: np.ndarray, conn: np.ndarray, family: str, particles: np.ndar
         first = np.concatenate([[True], pi[1:] != pi[:-1]]) if pi.size else pi.astype(bool)
         cell[s + pi[first]] = ci[first]
         xi_all[s + pi[first]] = xi[first]
+    return cell, xi_all
+
+
+def locate(points: np.ndarray, conn: np.ndarray, family: str, particles: np.ndarray,
+           where: str = "particles") -> Embedding:
+    """The cell of ``conn`` (node ids into ``points``) holding each particle.
+    A particle on a shared face goes to the lowest-numbered cell; a particle in
+    no cell is refused, naming it."""
+    particles = np.asarray(particles, dtype=float)
+    cell, xi = find(points, conn, family, particles)
     lost = np.flatnonzero(cell < 0)
     if lost.size:
         raise SceneError(f"{where}: particle {int(lost[0])} at {particles[lost[0]].tolist()} lies "
                          f"in no cell of the band ({lost.size} such particles)")
-    N, _ = FAMILIES[family].shape(xi_all)
-    return Embedding(cell, conn[cell], N, xi_all)
+    return embedding(conn, family, cell, xi)
+
+
+def embedding(conn, family, cell, xi) -> Embedding:
+    """The Embedding of particles in cells ``cell`` of ``conn`` at local ``xi``."""
+    N, _ = FAMILIES[family].shape(xi)
+    return Embedding(cell, conn[cell], N, xi)

@@ -1,4 +1,5 @@
-"""Load time functions: sine, half-sine pulse, tabulated (piecewise linear).
+"""Load time functions: sine, half-sine pulse, rectangular pulse, tabulated
+(piecewise linear).
 
 Each function has ``at(t)`` for one time (plain floats: it runs every step)
 and ``values(t)`` for an array of times (plots, references).  The exact
@@ -58,6 +59,24 @@ class HalfSine(LoadFunction):
 
 
 @dataclass(frozen=True)
+class Rectangular(LoadFunction):
+    """g(t) = amplitude on [start, start + duration), 0 elsewhere: a sudden load
+    and unload (seed 003's bar)."""
+
+    amplitude: float
+    duration: float
+    start: float = 0.0
+
+    def at(self, t):
+        s = t - self.start
+        return self.amplitude if 0.0 <= s < self.duration else 0.0
+
+    def values(self, t):
+        s = np.asarray(t, dtype=float) - self.start
+        return np.where((s >= 0) & (s < self.duration), self.amplitude, 0.0)
+
+
+@dataclass(frozen=True)
 class Tabulated(LoadFunction):
     """Piecewise linear through (times, forces); the end values are held outside."""
 
@@ -77,4 +96,6 @@ def load_function(spec) -> LoadFunction:
         return Sine(spec.amplitude, spec.omega)
     if spec.kind == "half_sine":
         return HalfSine(spec.amplitude, spec.duration, spec.start)
+    if spec.kind == "rectangular":
+        return Rectangular(spec.amplitude, spec.duration, spec.start)
     return Tabulated(tuple(r[0] for r in spec.table), tuple(r[1] for r in spec.table))

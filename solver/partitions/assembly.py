@@ -230,15 +230,16 @@ def nodal(values: np.ndarray, conn: np.ndarray, n_nodes: int) -> np.ndarray:
     return np.bincount(conn.ravel(), weights=values.ravel(), minlength=n_nodes)
 
 
-def group_matrices(mesh, name: str, material, where: str = ""):
+def group_matrices(mesh, name: str, material, where: str = "", only=None):
     """Element stiffness (computed when asked) and lumped masses of every cell
-    family of group ``name``: list of (family, conn, CellStiffness, me).  An inverted or degenerate cell is reported
-    with its group and gmsh element tag."""
+    family of group ``name`` (or of the cells ``only``, family -> conn, taken
+    from it): list of (family, conn, CellStiffness, me).  An inverted or
+    degenerate cell is reported with its group and gmsh element tag."""
     from solver.model.elements import FAMILIES, BadElement, lumped_mass
     from solver.errors import SceneError
     group = mesh.group(name, where)
     out = []
-    for fam_name, conn in group.cells.items():
+    for fam_name, conn in (group.cells if only is None else only).items():
         fam = FAMILIES.get(fam_name)
         if fam is None or fam.dim != mesh.dim:
             raise SceneError(f"{where + ': ' if where else ''}group {name!r} has {fam_name} cells; "
@@ -248,7 +249,8 @@ def group_matrices(mesh, name: str, material, where: str = ""):
             me = lumped_mass(fam, X, material)        # also checks every Jacobian
             out.append((fam, conn, CellStiffness(fam, mesh.points, conn, material), me))
         except BadElement as e:
-            tag = int(group.cell_tags[fam_name][e.index])
+            at = np.flatnonzero((group.cells[fam_name] == conn[e.index]).all(axis=1))[0]
+            tag = int(group.cell_tags[fam_name][at])
             raise SceneError(f"{where + ': ' if where else ''}group {name!r}: gmsh element {tag} "
                              f"({fam_name}) {str(e).split(' is ', 1)[1]}") from None
     return out

@@ -96,7 +96,7 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
                                          dict(decided.freqs))
     for line in assignment.lines([p.name for p in scene.partitions]):
         say(line)
-    refuse(scene, decided.problems, say)
+    refuse(scene, decided.problems, say, sides=decided.freqs)
     comms = ranks.communicators(comm, assignment)
     parts, error, name = [], None, "?"
     try:
@@ -140,9 +140,12 @@ def check_stability(scene, mdl, layouts, ids):
     return freqs, problems
 
 
-def refuse(scene, problems, say, freqs=None):
+def refuse(scene, problems, say, freqs=None, sides=None):
     """Stop on unstable steps (guard.stable_step) or warn; with ``freqs``, warn
-    about coupled implicit steps beyond the measured limit."""
+    about coupled implicit steps beyond the measured limit.  ``sides``: the
+    critical steps known so far, named in a transition scheme's refusal."""
+    if problems and scene.coupling.scheme == "transition" and sides:
+        problems = [p + "; " + transition_limits(scene, sides) for p in problems]
     if problems and scene.guard.stable_step:
         raise StabilityError(problems[0])
     for problem in dict.fromkeys(problems):
@@ -150,6 +153,19 @@ def refuse(scene, problems, say, freqs=None):
     if freqs is not None:
         for warning in coupled_step_warnings(scene, [{n: c for n, (_, c) in freqs.items()}]):
             say(f"warning: {warning}")
+
+
+def transition_limits(scene, freqs) -> str:
+    """Both sides' critical steps and the largest stable FE step ratio."""
+    dt = scene.time.dt
+    out = []
+    for p in scene.partitions:
+        crit = freqs.get(p.name, (None, None))[1]
+        if crit is not None:
+            out.append(f"{p.name} critical step {crit:.4g} s" + (
+                f" (largest stable ratio {int(crit / dt * (1 - 1e-12))} at time.dt {dt:.4g} s)"
+                if p.method == "fem" else ""))
+    return "transition zone: " + ", ".join(out)
 
 
 def check_large(scene, parts, freqs, comm, say):
@@ -165,7 +181,7 @@ def check_large(scene, parts, freqs, comm, say):
             freqs[name] = (fr, crit)
             if problem:
                 problems.append(problem)
-    refuse(scene, problems, say)
+    refuse(scene, problems, say, sides=freqs)
 
 
 def owned_nonzeros(graph, owned, dofmap) -> int:

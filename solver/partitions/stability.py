@@ -3,9 +3,10 @@
 Explicit Newmark (any beta) and velocity Verlet are stable for
 ``omega_max * dt < 2``.  For up to ``EXACT_LIMIT`` DOFs the frequency is the
 exact largest eigenvalue of M^-1/2 K M^-1/2 (dense symmetric solve); up to
-``DENSE_LIMIT`` it is a Lanczos estimate of the same eigenvalue (ARPACK through
-scipy, converged to ``LANCZOS_TOL`` and raised by ``LANCZOS_MARGIN``: 25 ms
-instead of 2.5 s at 3000 DOF), both known before any PETSc object exists;
+``LANCZOS_LIMIT`` it is a Lanczos estimate of the same eigenvalue (ARPACK through
+scipy on the sparse matrix, converged to ``LANCZOS_TOL`` and raised by
+``LANCZOS_MARGIN``: 25 ms instead of 2.5 s at 3000 DOF), both known before any
+PETSc object exists;
 beyond that it is the Gershgorin bound of the
 same matrix, taken from the partition's assembled operator (still before
 stepping), which is never below the true value, so the guard stays on the
@@ -19,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 EXACT_LIMIT = 300        # dense eigenvalues up to here
-DENSE_LIMIT = 3000       # numpy/scipy (before PETSc) up to here; assembled Gershgorin above
+DENSE_LIMIT = 3000       # dense eigenvalues when Lanczos does not converge, up to here
+LANCZOS_LIMIT = 300000   # scipy's Lanczos (before PETSc) up to here; assembled Gershgorin above
 LANCZOS_TOL = 1e-10      # ARPACK's relative accuracy of the Ritz value
 LANCZOS_MARGIN = 1e-6    # the estimate is raised by this fraction, so it is never below
 
@@ -43,7 +45,7 @@ def omega_max(block_sets, held, mass: np.ndarray, dofmap) -> Frequency:
     n = mass.size
     if n == 0 or not any(len(c) for c, _ in block_sets):
         return Frequency(0.0, "exact")
-    if n <= DENSE_LIMIT:
+    if n <= LANCZOS_LIMIT:
         local = np.full(int(held.max()) + 1, -1, dtype=np.int64)
         local[held] = np.arange(held.size)
         rows, cols, vals = triplets([(local[c], k) for c, k in block_sets],
@@ -53,6 +55,8 @@ def omega_max(block_sets, held, mass: np.ndarray, dofmap) -> Frequency:
             lam = _lanczos(rows, cols, vals * s[rows] * s[cols], n)
             if lam is not None:
                 return Frequency(float(np.sqrt(max(lam, 0.0)) * (1 + LANCZOS_MARGIN)), "Lanczos")
+            if n > DENSE_LIMIT:
+                return None          # not converged: the Gershgorin bound of the operator
         A = np.zeros((n, n))
         np.add.at(A, (rows, cols), vals * s[rows] * s[cols])
         lam = float(np.linalg.eigvalsh(A)[-1])
@@ -132,7 +136,10 @@ def check(scene, spec, model, held):
     (Frequency, critical step [s], problem message or None).  The limit is the
     integrator's (2 for explicit Newmark and Verlet, none for implicit average
     acceleration), lowered by Rayleigh damping for explicit ones to
-    2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max."""
+    2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max.  External
+    nodes count with their masses and the elements the partition holds (for a
+    transition band's FE side: the core particles on their bonds to the band,
+    which is what keeps the coupled sub-cycling stable, docs/transition.md)."""
     # what the partition steps: cells for fem, bonds (and overlap cells) for dem
     blocks = model.bond_blocks(held) if spec.method == "dem" else model.stiffness_blocks(held)
     dm = model.dofmap

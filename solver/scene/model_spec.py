@@ -148,8 +148,17 @@ class Material:
 @dataclass(frozen=True)
 class LatticeSpec:
     region: str = key("physical group (cells) filled with the bonded lattice")
-    spacing: float = key("lattice spacing a [m]; the mesh must have a node at every lattice site "
-                         "of the region and one spacing around it", positive=True)
+    spacing: float = key("lattice spacing a [m]; without a transition band the mesh must have a "
+                         "node at every lattice site of the region and one spacing around it",
+                         positive=True)
+    E: float | None = key("Young's modulus of the lattice [Pa] when it differs from the model's "
+                          "material (a stiffer or softer DEM region); default: model.material.E",
+                          None, positive=True)
+    transition: str | None = key(
+        "physical group of the transition band (seed 003): one layer of coarse cells around "
+        "the region that the lattice overlaps; its particles move with their cell (shape-function "
+        "weights), their bond forces and masses go to the cell's nodes, and the region's cells "
+        "only give its shape (see docs/transition.md)", None)
     kind: Literal["square"] = key("square: square lattice with diagonal bonds in 2D (nu = 1/3 "
                                   "plane stress, 1/4 plane strain), simple cubic with face "
                                   "diagonals in 3D (nu = 1/4)", "square")

@@ -70,33 +70,41 @@ class Partition:
 
 @dataclass(frozen=True)
 class Coupling:
-    scheme: Literal["overlap", "staggered", "gc"] = key(
+    scheme: Literal["overlap", "staggered", "gc", "transition"] = key(
         "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
         "state and exchange once per system step; staggered: seed 002, the explicit partition "
         "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
-        "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank)",
-        "overlap")
+        "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank); "
+        "transition: seed 003, needs model.lattice.transition: the dem partition sub-cycles "
+        "over the band's motion, then the explicit fem partition steps with the particles' "
+        "forces", "overlap")
     external: Literal["taylor", "layers", "literal"] = key(
         "external-data treatment: taylor (one layer following the Taylor predictor from the last "
         "exchange, default), layers (one layer per sub-step, integrated), literal (seed 000: one "
         "layer integrated by the partition's own scheme)", "taylor")
+    band_motion: Literal["predictor", "velocity", "hold"] = key(
+        "transition scheme: how band particles move between FE steps: predictor (the FE's own "
+        "explicit path u + s v + s^2/2 a, which ends on the FE's next displacement; default), "
+        "velocity (u + s v: the node velocities of eq. 4 held), hold (positions held until the "
+        "next FE step)", "predictor")
 
 
 @dataclass(frozen=True)
 class Load:
-    kind: Literal["sine", "half_sine", "tabulated"] = key(
+    kind: Literal["sine", "half_sine", "rectangular", "tabulated"] = key(
         "sine: A sin(omega t); half_sine: A sin(pi (t-start)/duration) on [start, start+duration], "
-        "0 elsewhere; tabulated: piecewise linear through table, end values held")
+        "0 elsewhere; rectangular: A on [start, start+duration), 0 elsewhere (sudden load and "
+        "unload); tabulated: piecewise linear through table, end values held")
     node: int | None = key("loaded node (or give group)", None, nonnegative=True)
     group: str | None = key("continuum models: physical group (edge in 2D, face in 3D) carrying "
                             "a traction: amplitude in N/m (2D) or N/m^2 (3D)", None)
     direction: tuple[float, ...] | None = key("continuum models: traction direction (default "
                                               "[1, 0(, 0)])", None)
     component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
-    amplitude: float = key("A [N] (sine, half_sine)", 1.0)
+    amplitude: float = key("A [N] (sine, half_sine, rectangular)", 1.0)
     omega: float | None = key("angular frequency [rad/s] (sine)", None, positive=True)
-    duration: float | None = key("pulse length [s] (half_sine)", None, positive=True)
-    start: float = key("pulse start [s] (half_sine)", 0.0, nonnegative=True)
+    duration: float | None = key("pulse length [s] (half_sine, rectangular)", None, positive=True)
+    start: float = key("pulse start [s] (half_sine, rectangular)", 0.0, nonnegative=True)
     table: tuple[tuple[float, ...], ...] | None = key("[[t, value], ...] with increasing t (tabulated)",
                                                       None)
 
@@ -106,7 +114,8 @@ class Load:
         if self.direction is not None and not any(self.direction):
             fail(f"{path}.direction", f"{list(self.direction)} is the zero vector: a traction "
                  "needs a direction")
-        need = {"sine": ("omega",), "half_sine": ("duration",), "tabulated": ("table",)}[self.kind]
+        need = {"sine": ("omega",), "half_sine": ("duration",), "rectangular": ("duration",),
+                "tabulated": ("table",)}[self.kind]
         for name in ("omega", "duration", "table"):
             given = getattr(self, name) is not None
             if name in need and not given:
@@ -252,6 +261,36 @@ class Scene:
     def system_dt(self) -> float:
         return self.time.dt * self.system_ratio
 
+    def _check_transition(self, banded):
+        """A transition band couples one lattice to the FE cells through the
+        overlap exchange: the dem partitions hold the core particles (group =
+        the lattice region), externals follow the Taylor predictor."""
+        if not banded:
+            fail("coupling.scheme", "transition: needs a continuum model with "
+                 "model.lattice.transition (the band of coarse cells)")
+        lat = self.model.lattice
+        if self.coupling.scheme != "transition":
+            fail("coupling.scheme", f"{self.coupling.scheme}: a transition band "
+                 "(model.lattice.transition) couples with scheme transition")
+        if self.coupling.external != "taylor":
+            fail("coupling.external", f"{self.coupling.external}: a transition band's particles "
+                 "follow their cells with the taylor treatment")
+        methods = sorted(p.method for p in self.partitions)
+        if methods != ["dem", "fem"]:
+            fail("partitions", f"the transition scheme couples one fem and one dem partition "
+                 f"(given: {', '.join(methods)})")
+        fem = next(p for p in self.partitions if p.method == "fem")
+        if fem.integrator != "explicit" or fem.ratio != self.system_ratio:
+            fail("partitions", f"transition scheme: fem partition '{fem.name}' must be explicit "
+                 f"with the largest ratio ({self.system_ratio}); its step is the FE step fdt")
+        for p, part in enumerate(self.partitions):
+            if part.method == "dem" and part.group != lat.region:
+                fail(f"partitions[{p}].group", f"{part.group!r}: with a transition band a dem "
+                     f"partition holds the particles of model.lattice.region ({lat.region!r})")
+            if part.method == "fem" and part.group == lat.region:
+                fail(f"partitions[{p}].group", f"{part.group!r} is the lattice region: its cells "
+                     "only give the DEM region's shape")
+
     @property
     def n_system_steps(self) -> int:
         return int(self.time.end / self.system_dt + 1e-9)
@@ -279,6 +318,9 @@ class Scene:
             names.add(part.name)
         if self.coupling.scheme in ("staggered", "gc"):
             self._check_staggered()
+        banded = continuum and self.model.lattice is not None and bool(self.model.lattice.transition)
+        if banded or self.coupling.scheme == "transition":
+            self._check_transition(banded)
         big = self.system_ratio
         for p, part in enumerate(self.partitions):
             if big % part.ratio:

@@ -1,0 +1,124 @@
+"""Stress at continuum probes: sigma_cc along the probe's component c.
+
+Both are linear in the displacement, so each probe is one row of coefficients
+over the DOFs of its node and neighbours, assembled into a small PETSc matrix
+over the partition's held DOFs (:meth:`Partition.operator`): one MatMult per
+system step gives every probe of the partition, its ghosts refreshed by PETSc
+whatever the rank layout.
+
+- FE node: the average over the node's FE cells of the cell-averaged stress
+  (D B u averaged over the cell's quadrature points), the stress the field
+  output writes per cell.
+- Particle (dem partitions): the bond (virial, Love-Weber) stress
+  sigma = 1/(2 V) sum_j f_ij (x) r_ij over its bonds, with V = m / rho its
+  volume (thickness included in plane stress), f_ij = k (n . (u_j - u_i)) n the
+  bond force on i and r_ij = x_j - x_i; a bond carried to band nodes (seed 003
+  transition) counts with its band end interpolated from the cell.  In a
+  uniformly strained lattice this is the continuum stress of the calibrated
+  material (tests/test_transition.py).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from solver.petscutil import init, vec_on
+
+
+def fe_row(mdl, node: int, c: int):
+    """(nodes, coefficients [len(nodes), dim]) of sigma_cc at mesh node ``node``."""
+    from solver.model.elements import _geometry, strain_matrix
+    D = mdl.material_D
+    dim = mdl.dof
+    nodes, coefs, n_cells = [], [], 0
+    for fam, conn, _ in mdl.cells:
+        hit = np.flatnonzero((conn == node).any(axis=1))
+        if not hit.size:
+            continue
+        _, dNdx, _ = _geometry(fam, mdl.points[conn[hit]])
+        op = np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) / dNdx.shape[1]   # [e, s, k*dim]
+        nodes.append(conn[hit].ravel())
+        coefs.append(op[:, c, :].reshape(-1, dim))
+        n_cells += hit.size
+    if not n_cells:
+        return np.array([node]), np.zeros((1, dim))
+    return np.concatenate(nodes), np.concatenate(coefs) / n_cells
+
+
+def bond_row(mdl, node: int, c: int, rho: float):
+    """(nodes, coefficients) of the bond stress sigma_cc at particle ``node``."""
+    dim = mdl.dof
+    V = mdl.mass[node] / rho
+    nodes, coefs = [], []
+    if mdl.bonds:
+        bi, bj, k = mdl.bonds
+        for mine, other in ((bi, bj), (bj, bi)):
+            sel = np.flatnonzero(mine == node)
+            for b in sel:
+                r = mdl.points[other[b]] - mdl.points[node]
+                L = np.linalg.norm(r)
+                n = r / L
+                w = k[b] * L * n[c] ** 2 / (2 * V)          # times n . (u_j - u_i)
+                nodes += [other[b], node]
+                coefs += [w * n, -w * n]
+    for _, conn, blocks in mdl.carried:
+        sel = np.flatnonzero(conn[:, -1] == node)             # band-core bonds end on the core
+        for b in sel:
+            g = blocks.g[b].reshape(-1, dim)                  # elongation = sum_a g_a . u_a
+            n = g[-1]                                         # unit vector band -> core
+            w = blocks.k[b] * blocks.length[b] * n[c] ** 2 / (2 * V)
+            nodes += list(conn[b])
+            coefs += list(w * g)
+    if not nodes:
+        return np.array([node]), np.zeros((1, dim))
+    return np.array(nodes), np.array(coefs)
+
+
+class StressProbes:
+    """sigma_cc of this rank's probed nodes, one MatMult per partition piece.
+    Collective: every piece of a partition builds and evaluates its operator."""
+
+    def __init__(self, scene, mdl, parts):
+        self.ops = []
+        rho = scene.model.material.rho
+        dim = mdl.dof
+        for part in parts:
+            blocks, rows = [], []
+            for probe in scene.probes:
+                loc = part.layout.local(np.array([probe.node]))[0]
+                if not 0 <= loc < part.layout.n_owned:
+                    continue
+                nodes, coef = (bond_row(mdl, probe.node, probe.component, rho)
+                               if part.method == "dem" else
+                               fe_row(mdl, probe.node, probe.component))
+                conn = np.unique(np.concatenate([[probe.node], nodes]))
+                where = np.searchsorted(conn, nodes)
+                Ke = np.zeros((1, conn.size * dim, conn.size * dim))
+                row = int(np.searchsorted(conn, probe.node)) * dim + probe.component
+                np.add.at(Ke[0, row], (where[:, None] * dim + np.arange(dim)).ravel(), coef.ravel())
+                blocks.append((conn[None, :], Ke))
+                rows.append((probe.name, int(part.starts[loc]) + probe.component))
+            S = part.operator(blocks)
+            out = np.zeros(part.held_dofs.size)
+            self.ops.append((S, part.u, vec_on(out, part.comm), out, rows))
+
+    def values(self) -> dict:
+        """{probe name: sigma} of this rank's probes (collective)."""
+        got = {}
+        for S, u, out_vec, out, rows in self.ops:
+            S.mult(u, out_vec)
+            for name, i in rows:
+                got[name] = float(out[i])
+        return got
+
+    def destroy(self):
+        for S, _, out_vec, _, _ in self.ops:
+            S.destroy()
+            out_vec.destroy()
+
+
+def build(scene, mdl, parts):
+    """StressProbes when the model is a continuum with probes, else None."""
+    if not scene.probes or not hasattr(mdl, "cells"):
+        return None
+    init()
+    return StressProbes(scene, mdl, parts)

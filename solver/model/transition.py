@@ -1,0 +1,272 @@
+"""Seed 003's transition zone: a lattice whose outer particle layers sit inside
+coarse FE cells (``model.lattice.transition``).
+
+The mesh has three kinds of cells: the FE cells (the body without the two
+groups below), the *band* (``lattice.transition``: one layer of coarse cells
+around the DEM region) and the DEM *region* (``lattice.region``, whose cells
+only give its shape).  Lattice sites are laid on the bounding box of band and
+region and kept where they fall inside a band or region cell; a site in a band
+cell is a *band particle*, the others are *core particles*.  Bonds and masses
+are those of the lattice cells whose four (eight) corners are kept.
+
+Core particles are model nodes (numbered after the mesh nodes) and belong to
+the dem partitions.  Band particles are not nodes: each one moves with its
+cell (eq. 4: u_p = sum_i N_i(xi_p) u_i), so a bond that touches a band
+particle is an element on the cell's nodes.  With e the bond's unit vector
+and g = T^T (-e, e) the bond direction carried to the element's nodes
+through the interpolation T, its stiffness is k g g^T: the forces the bond
+puts on its band particle go to the cell's nodes with the weights N_i
+(eq. 3), and the bond's energy is exactly the lattice's.  Band node masses
+are the weighted particle masses (eq. 5); the band cells themselves carry no
+FE stiffness or mass (the particles are the material there, so nothing is
+counted twice).  The band's density and stiffness are then the lattice's,
+and the FE partition's critical step grows with the band cells' size.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from solver.errors import SceneError
+from solver.model.elements import FAMILIES
+from solver.model.embedding import Embedding, embedding, find
+from solver.model.lattice import cubic, merge, square
+
+
+class RankOneBonds:
+    """Stiffness k g g^T of bonds carried to nodes (``g`` [n_el, nd]); blocks
+    computed when asked, like :class:`solver.partitions.assembly.CellStiffness`."""
+
+    def __init__(self, conn, g, k, length):
+        self.conn, self.g, self.k, self.length = conn, g, k, length
+
+    def __len__(self) -> int:
+        return len(self.conn)
+
+    def __getitem__(self, idx) -> np.ndarray:
+        g, k = self.g[idx], self.k[idx]
+        return k[:, None, None] * g[:, :, None] * g[:, None, :]
+
+    def subset(self, mask) -> "RankOneBonds":
+        return RankOneBonds(self.conn[mask], self.g[mask], self.k[mask], self.length[mask])
+
+
+@dataclass(frozen=True)
+class Transition:
+    n_mesh: int
+    points: np.ndarray          # [n_core, dim] core particles: model nodes n_mesh + i
+    mass: np.ndarray            # [n_core]
+    bonds: tuple                # (i, j, k) between core particles, model node ids
+    blocks: list                # ("bond", conn, RankOneBonds) of bonds with a band end
+    node_mass: np.ndarray       # [n_mesh] band particle masses on the nodes (eq. 5)
+    band: Embedding             # band particles in the band cells (mesh node ids)
+    band_points: np.ndarray
+    band_mass: np.ndarray
+    fe_cells: dict              # family -> conn: the body's cells outside band and region
+    band_cells: dict            # family -> conn
+    spacing: float
+
+    @property
+    def n_core(self) -> int:
+        return len(self.points)
+
+    @property
+    def core_ids(self) -> np.ndarray:
+        return self.n_mesh + np.arange(self.n_core)
+
+    def describe(self) -> str:
+        n_cells = sum(len(c) for c in self.band_cells.values())
+        per = np.bincount(self.band.cell, minlength=n_cells)
+        return (f"transition zone: {n_cells} band cells holding {len(self.band_points)} band "
+                f"particles ({per.min()}-{per.max()} per cell), {self.n_core} core particles, "
+                f"{sum(len(c) for _, c, _ in self.blocks)} bonds carried to band nodes")
+
+
+def _keys(conn):
+    """Order-free row keys of a connectivity (to compare cells between groups)."""
+    s = np.sort(conn, axis=1)
+    return np.ascontiguousarray(s).view([("", s.dtype)] * s.shape[1]).ravel()
+
+
+def _without(cells: dict, *others: dict) -> dict:
+    out = {}
+    for fam, conn in cells.items():
+        drop = np.zeros(len(conn), bool)
+        for other in others:
+            if fam in other and len(other[fam]):
+                drop |= np.isin(_keys(conn), _keys(other[fam]))
+        if (~drop).any():
+            out[fam] = conn[~drop]
+    return out
+
+
+def _flat(cells: dict):
+    """All cells of ``cells`` as (family per cell, conn padded with the first node)."""
+    k = max(c.shape[1] for c in cells.values())
+    fams, conns = [], []
+    for fam, conn in cells.items():
+        fams += [fam] * len(conn)
+        conns.append(np.hstack([conn, np.repeat(conn[:, :1], k - conn.shape[1], axis=1)]))
+    return fams, np.concatenate(conns)
+
+
+def _find_in(points, cells: dict, sites):
+    """(cell index over the concatenated families, weights [n, k_max]) of every
+    site; cell -1 where none holds it."""
+    k = max(c.shape[1] for c in cells.values())
+    cell = np.full(len(sites), -1, dtype=np.int64)
+    weights = np.zeros((len(sites), k))
+    offset = 0
+    for fam, conn in cells.items():
+        todo = np.flatnonzero(cell < 0)
+        c, xi = find(points, conn, fam, sites[todo])
+        hit = c >= 0
+        if hit.any():
+            emb = embedding(conn, fam, c[hit], xi[hit])
+            cell[todo[hit]] = offset + c[hit]
+            weights[todo[hit], :conn.shape[1]] = emb.weights
+        offset += len(conn)
+    return cell, weights
+
+
+def _label(group, index: int) -> str:
+    """'gmsh element <tag>' of cell ``index`` over the group's families in order."""
+    for fam, conn in group.cells.items():
+        if index < len(conn):
+            tags = group.cell_tags.get(fam)
+            return f"gmsh element {int(tags[index])}" if tags is not None else f"{fam} cell {index}"
+        index -= len(conn)
+    return f"cell {index}"
+
+
+def build(spec, mesh) -> Transition:
+    """The transition zone of continuum model ``spec`` on ``mesh``."""
+    lat, mat = spec.lattice, spec.material
+    key = "model.lattice.transition"
+    body = mesh.group(spec.body, "model.body")
+    region = mesh.group(lat.region, "model.lattice.region")
+    band = mesh.group(lat.transition, key)
+    for name, group in ((lat.region, region), (lat.transition, band)):
+        if not group.cells or group.dim != mesh.dim:
+            raise SceneError(f"{key}: group {name!r} must hold {mesh.dim}D cells")
+    pts, dim, a = mesh.points, mesh.dim, lat.spacing
+    fe_cells = _without(body.cells, band.cells, region.cells)
+    _check_layer(mesh, fe_cells, region, band, lat)
+
+    # lattice sites on the bounding box of band and region
+    nodes = np.unique(np.concatenate([band.nodes, region.nodes]))
+    lo, hi = pts[nodes].min(axis=0), pts[nodes].max(axis=0)
+    shape = np.floor((hi - lo) / a + 1e-6).astype(int) + 1
+    if np.prod(shape, dtype=float) > 5e7:
+        raise SceneError(f"model.lattice.spacing: {a:g} m gives {np.prod(shape, dtype=float):.3g} "
+                         "lattice sites on the region's bounding box (limit 5e7)")
+    try:
+        E = lat.E or mat.E
+        grid = (square(lo, shape, a, E, mat.nu, mat.rho, mat.thickness, mat.kind)
+                if dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
+    except ValueError as e:
+        raise SceneError(f"model.lattice: {e}") from None
+    band_cell, band_w = _find_in(pts, band.cells, grid.points)
+    in_region = np.zeros(len(grid.points), bool)
+    todo = np.flatnonzero(band_cell < 0)
+    region_cell, _ = _find_in(pts, region.cells, grid.points[todo])
+    in_region[todo[region_cell >= 0]] = True
+    kept = (band_cell >= 0) | in_region
+    # lattice cells with every corner kept carry the bonds and the masses
+    full = kept[grid.corners].all(axis=1)
+    ci, cj, ck, cell = grid.cell_bonds
+    bi, bj, bk = merge(ci[full[cell]], cj[full[cell]], ck[full[cell]], len(grid.points))
+    t = mat.thickness if mat.kind == "plane_stress" else 1.0
+    share = mat.rho * (t * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
+    mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
+    kept &= mass > 0                               # a site outside every kept cell: no particle
+    is_band = kept & (band_cell >= 0)
+    is_core = kept & ~is_band
+    n_band_cells = sum(len(c) for c in band.cells.values())
+    empty = np.setdiff1d(np.arange(n_band_cells), band_cell[is_band])
+    if empty.size:
+        raise SceneError(f"{key}: band cell {_label(band, int(empty[0]))} of group "
+                         f"{lat.transition!r} holds no particle of spacing {a:g} m "
+                         f"({empty.size} such cells); the band must overlap the lattice")
+    if not is_core.any():
+        raise SceneError(f"model.lattice.region: no lattice site of spacing {a:g} m lies in "
+                         f"region {lat.region!r} outside the band")
+
+    n_mesh = len(pts)
+    band_ids, core_ids = np.flatnonzero(is_band), np.flatnonzero(is_core)
+    model_id = np.full(len(grid.points), -1, dtype=np.int64)
+    model_id[core_ids] = n_mesh + np.arange(core_ids.size)
+    band_no = np.full(len(grid.points), -1, dtype=np.int64)
+    band_no[band_ids] = np.arange(band_ids.size)
+    _, flat_conn = _flat(band.cells)
+    b_nodes = flat_conn[band_cell[band_ids]]                        # [n_band, k]
+    b_w = band_w[band_ids]
+    emb = Embedding(band_cell[band_ids], b_nodes, b_w, np.zeros((band_ids.size, dim)))
+
+    # bonds: core-core stay bonds; bonds with a band end become elements on nodes
+    unit = grid.points[bj] - grid.points[bi]
+    length = np.linalg.norm(unit, axis=1)
+    unit /= length[:, None]
+    core_i, core_j = is_core[bi], is_core[bj]
+    cc = core_i & core_j
+    bonds = (model_id[bi[cc]], model_id[bj[cc]], bk[cc])
+    blocks = []
+    bb = is_band[bi] & is_band[bj]
+    if bb.any():
+        p, q, n = band_no[bi[bb]], band_no[bj[bb]], unit[bb]
+        g = np.concatenate([-b_w[p][:, :, None] * n[:, None, :],
+                            b_w[q][:, :, None] * n[:, None, :]], axis=1).reshape(bb.sum(), -1)
+        conn = np.hstack([b_nodes[p], b_nodes[q]])
+        blocks.append(("bond", conn, RankOneBonds(conn, g, bk[bb], length[bb])))
+    for band_end, core_end, sign in ((bi, bj, 1.0), (bj, bi, -1.0)):
+        m = is_band[band_end] & is_core[core_end]
+        if m.any():
+            p, n = band_no[band_end[m]], sign * unit[m]          # n from band to core
+            g = np.concatenate([-b_w[p][:, :, None] * n[:, None, :], n[:, None, :]],
+                               axis=1).reshape(m.sum(), -1)
+            conn = np.hstack([b_nodes[p], model_id[core_end[m]][:, None]])
+            blocks.append(("bond", conn, RankOneBonds(conn, g, bk[m], length[m])))
+    node_mass = emb.to_nodes(mass[band_ids], n_mesh)
+    return Transition(n_mesh, grid.points[core_ids], mass[core_ids], bonds, blocks, node_mass,
+                      emb, grid.points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a)
+
+
+def _check_layer(mesh, fe_cells, region, band, lat):
+    """The band must be a layer of cells between the region and the FE cells:
+    no node of a region cell in an FE cell, every band cell touching the region."""
+    key = "model.lattice.transition"
+    region_nodes = np.zeros(len(mesh.points), bool)
+    region_nodes[region.nodes] = True
+    for fam, conn in fe_cells.items():
+        touch = region_nodes[conn].any(axis=1)
+        if touch.any():
+            node = int(conn[touch][0][region_nodes[conn[touch][0]]][0])
+            raise SceneError(f"{key}: band {lat.transition!r} does not separate region "
+                             f"{lat.region!r} from the FE cells: mesh node {node} at "
+                             f"{mesh.points[node].tolist()} is in both ({int(touch.sum())} FE "
+                             "cells touch the region)")
+    index = 0
+    for fam, conn in band.cells.items():
+        away = ~region_nodes[conn].any(axis=1)
+        if away.any():
+            raise SceneError(f"{key}: band cell {_label(band, index + int(np.flatnonzero(away)[0]))} "
+                             f"of {lat.transition!r} does not touch region {lat.region!r}: the "
+                             "band must be one layer of cells around the DEM region")
+        index += len(conn)
+    for fam in band.cells:
+        if fam not in FAMILIES or FAMILIES[fam].dim != mesh.dim:
+            raise SceneError(f"{key}: group {lat.transition!r} has {fam} cells; the band needs "
+                             f"{mesh.dim}D cells")
+
+
+_cache: dict = {}
+
+
+def of(spec, mesh) -> Transition:
+    """``build`` once per model section and mesh (binding and the model stage share it)."""
+    key = (repr(spec), id(mesh))
+    if key not in _cache:
+        _cache.clear()
+        _cache[key] = build(spec, mesh)
+    return _cache[key]
