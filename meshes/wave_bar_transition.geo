@@ -5,7 +5,7 @@
 // with the band (step ratio layers - 1, seed 003 Table 1).  The core cells inside
 // the band only give the DEM region's shape.  Groups: solid (all cells), fem (FE +
 // band cells), band, dem (core), left, right.  mesh_parameters: a, layers, tri, H, x1, x2.
-L = 0.32;
+If (!Exists(L)) L = 0.32; EndIf
 If (!Exists(H)) H = 0.0024; EndIf
 If (!Exists(x1)) x1 = 0.158; EndIf
 If (!Exists(x2)) x2 = 0.162; EndIf

@@ -130,6 +130,9 @@ class GravouilCombescure:
         self.A.initialise(self.models[self.A.name])
         self.B.initialise(self.models[self.B.name])
 
+    def synchronise(self):
+        """Nothing to refresh: the interface is solved within the step."""
+
     def _coarse_free(self, t_m):
         B = self.B
         B.integrator.predict(B)

@@ -3,8 +3,9 @@
 Every scheme class has the same protocol: ``treatments(scene)`` (the
 external-data treatment of every partition), ``build(scene, model, comm,
 say)`` (a scheme ready to step on this rank, with ``parts``, ``layouts``,
-``freqs`` and ``exchanges``), then ``initialise(model)``, ``step(t0)`` and
-``describe()``.
+``freqs`` and ``exchanges``), then ``initialise(model)``, ``synchronise()``
+(externals from their owners, as after a step: restarts and the step-matrix
+analysis), ``step(t0)`` and ``describe()``.
 """
 from __future__ import annotations
 

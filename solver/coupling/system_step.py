@@ -126,6 +126,10 @@ class ConcurrentOverlap:
         """Initial state and accelerations; externals taken from their owners."""
         for part in self.parts:
             part.initialise(model)
+        self.synchronise()
+
+    def synchronise(self):
+        """Externals from their owners, as at the end of a system step."""
         for exchange in self.exchanges:
             exchange()
 
@@ -182,10 +186,14 @@ class Staggered(ConcurrentOverlap):
         return ("staggered scheme (seed 002): explicit sub-cycle, then the implicit solve with "
                 "the explicit side's accelerations prescribed")
 
-    def _solve_implicit(self, t1):
+    def _finish(self, t1):
+        """The solving side's step to t1, once the other side's state is in."""
         imp = self.implicit
         imp.integrator.finish(imp, t1)
         imp.after_step()
+
+    def _received(self):
+        """After the solving side's results reached the other side (a hook)."""
 
     def step(self, t0: float):
         imp, exp = self.implicit, self.explicit
@@ -195,24 +203,27 @@ class Staggered(ConcurrentOverlap):
             self.clocks.part(exp, exp.advance, t0)
         self.clocks.exchange(self.to_implicit)
         if imp:
-            self.clocks.part(imp, self._solve_implicit, t0 + imp.dt)
+            self.clocks.part(imp, self._finish, t0 + imp.dt)
         self.clocks.exchange(self.to_explicit)
+        self._received()
 
 
 class TransitionZone(Staggered):
     """``coupling.scheme: transition`` (seed 003, Fig. 2): the explicit FE
     partition steps fdt = N dt, the dem partition N steps of dt per FE step.
+    (The Staggered machinery names the FE side ``implicit``: it solves last.)
 
     Per system step: the FE partition predicts u_n+1 = u_n + fdt v_n + fdt^2/2 a_n
-    (explicit Newmark's displacement is its predictor); the dem partition
-    sub-cycles with the band nodes (its external nodes, which carry the band
-    particles) following ``coupling.band_motion``; the particles' state at
-    t_n+1 goes to the FE partition, which evaluates the carried bond forces
-    (eq. 3) with them and finishes its step; the band nodes' new state goes
-    back.  With ``predictor`` the band particles move on the FE's own path and
-    reach the FE's u_n+1 exactly, so both sides see the same band at every
-    sync; ``velocity`` (u + s v, eq. 4 read literally) and ``hold`` jump there
-    (docs/transition.md compares them)."""
+    (central difference, Newmark beta 0: its displacement is its predictor);
+    the dem partition sub-cycles with the band nodes (its external nodes,
+    which carry the band particles) moving as ``coupling.band_motion`` says;
+    the particles' state at t_n+1 goes to the FE partition, which evaluates
+    the carried bonds (eq. 3) with it and finishes its step; the band nodes'
+    new state goes back.  With ``predictor`` (default) the band moves on the
+    FE's own path, ``linear`` straight from u_n to u_n+1, both ending on the
+    FE's u_n+1; ``velocity`` (u + s v, eq. 4 read literally) and ``hold`` jump
+    there.  At N = 1 this is one central-difference step of the whole model
+    (docs/transition.md, which also gives the stable steps)."""
 
     name = "transition"
 
@@ -229,7 +240,11 @@ class TransitionZone(Staggered):
         motion = scene.coupling.band_motion
         ext, fe = self.explicit, self.implicit
         self._band = None
-        if ext is not None and motion != "predictor":
+        self._linear = None
+        if ext is not None and motion == "linear":
+            n = ext.n_own
+            self._linear = (ext.V[n:], ext.A[n:], 0.5 * scene.system_dt)
+        elif ext is not None and motion != "predictor":
             n = ext.n_own
             self._band = ext.A[n:] if motion == "velocity" else ext.state[1:, n:]
         if fe is not None:
@@ -243,25 +258,19 @@ class TransitionZone(Staggered):
         return ("transition-zone scheme (seed 003): dem sub-steps over the band's motion, then the "
                 "explicit FE step with the particles' forces on its band nodes")
 
-    def _finish_fe(self, t1):
+    def _finish(self, t1):
         for exchanged, predicted in self._particles:
             np.copyto(predicted, exchanged)
-        self._solve_implicit(t1)
+        super()._finish(t1)
 
-    def step(self, t0: float):
-        fe, dem = self.implicit, self.explicit
-        if fe:
-            self.clocks.part(fe, fe.integrator.predict, fe)
-        if dem:
-            self.clocks.part(dem, dem.advance, t0)
-        self.clocks.exchange(self.to_implicit)
-        if fe:
-            self.clocks.part(fe, self._finish_fe, t0 + fe.dt)
-        self.clocks.exchange(self.to_explicit)
+    def _received(self):
         if self._band is not None:
             self._band[...] = 0.0          # velocity: a = 0; hold: v = a = 0 until the next sync
+        elif self._linear is not None:     # linear: v = (u_n+1 - u_n) / fdt = v + fdt/2 a, a = 0
+            v, a, half = self._linear
+            v += half * a
+            a[...] = 0.0
 
-    def initialise(self, model):
-        super().initialise(model)
-        if self._band is not None:
-            self._band[...] = 0.0
+    def synchronise(self):
+        super().synchronise()
+        self._received()

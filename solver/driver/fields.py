@@ -60,12 +60,18 @@ class FieldWriter:
         points = np.zeros((self.n, 3))
         points[:, :self.dim] = mdl.points
         self.points = points
-        self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn, _ in mdl.cells]
+        from solver.model.elements import FAMILIES
+        # the FE cells, and a transition band's cells (their stress is that of
+        # the displacement they interpolate for their particles)
+        blocks = [(fam, conn) for fam, conn, _ in mdl.cells]
+        if getattr(mdl, "zone", None) is not None:
+            blocks += [(FAMILIES[name], conn) for name, conn in mdl.zone.band_cells.items()]
+        self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn in blocks]
         self.stress_ops = []
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu
         D = material.elastic().D()
-        for fam, conn, _ in mdl.cells:               # u_e -> cell-averaged stress
+        for fam, conn in blocks:                     # u_e -> cell-averaged stress
             _, dNdx, _ = _geometry(fam, mdl.points[conn])
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
                                     dNdx.shape[1]))

@@ -96,8 +96,7 @@ def restore(data: dict, parts, scheme, guard):
         p.work = float(saved["work"]) if p.layout.piece == 0 else 0.0
         p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
                                        saved["load_values"].tolist())))
-    for exchange in scheme.exchanges:
-        exchange()
+    scheme.synchronise()
     guard.restore(data["guard"])
 
 

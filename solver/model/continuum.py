@@ -278,7 +278,16 @@ def _fixed(scene, mesh, n_nodes):
 
 def _with_zone(scene, mesh, zone, cells, mass):
     """The model of a transition band: mesh nodes, then the core particles."""
+    from solver.errors import SceneError
     dim = mesh.dim
+    band_nodes = np.unique(np.concatenate([c.ravel() for c in zone.band_cells.values()]))
+    massless = band_nodes[mass[band_nodes] <= 0]
+    if massless.size:
+        node = int(massless[0])
+        raise SceneError(f"model.lattice.transition: band node {node} at "
+                         f"{mesh.points[node].tolist()} carries no mass: no particle of its "
+                         f"cells weighs on it ({massless.size} such nodes); refine the lattice "
+                         "or coarsen the band")
     n_nodes = zone.n_mesh + zone.n_core
     n = n_nodes * dim
     return ContinuumArrays(dim, np.concatenate([mesh.points, zone.points]),

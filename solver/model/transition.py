@@ -130,6 +130,23 @@ def _find_in(points, cells: dict, sites):
     return cell, weights
 
 
+def _empty_cells(points, cells: dict, assigned, particles) -> np.ndarray:
+    """Band cells (indices over the families in order) with no particle inside
+    or on their boundary (a particle on a shared face is assigned to one cell
+    only, so the unassigned cells are searched again on their own)."""
+    n = sum(len(c) for c in cells.values())
+    left = np.setdiff1d(np.arange(n), assigned)
+    empty, offset = [], 0
+    for fam, conn in cells.items():
+        mine = left[(left >= offset) & (left < offset + len(conn))] - offset
+        for c in mine:
+            hit, _ = find(points, conn[c:c + 1], fam, particles)
+            if not (hit >= 0).any():
+                empty.append(offset + c)
+        offset += len(conn)
+    return np.asarray(empty, dtype=np.int64)
+
+
 def _label(group, index: int) -> str:
     """'gmsh element <tag>' of cell ``index`` over the group's families in order."""
     for fam, conn in group.cells.items():
@@ -183,8 +200,7 @@ def build(spec, mesh) -> Transition:
     kept &= mass > 0                               # a site outside every kept cell: no particle
     is_band = kept & (band_cell >= 0)
     is_core = kept & ~is_band
-    n_band_cells = sum(len(c) for c in band.cells.values())
-    empty = np.setdiff1d(np.arange(n_band_cells), band_cell[is_band])
+    empty = _empty_cells(pts, band.cells, band_cell[is_band], grid.points[is_band])
     if empty.size:
         raise SceneError(f"{key}: band cell {_label(band, int(empty[0]))} of group "
                          f"{lat.transition!r} holds no particle of spacing {a:g} m "

@@ -117,7 +117,8 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
         part.graph = None            # preallocation done: the graph rows are not kept
     del graph
     check_large(scene, parts, freqs, comm, say)
-    refuse(scene, [], say, freqs)
+    damping = stability.transition_damping(scene, freqs)
+    refuse(scene, [damping] if damping else [], say, freqs)
     return Partitions(layouts, assignment, dists, parts, freqs, mdl)
 
 
@@ -133,7 +134,8 @@ def check_stability(scene, mdl, layouts, ids):
     """({name: (Frequency, critical step)}, problems) of partitions ``ids``; numpy only."""
     freqs, problems = {}, []
     for p in ids:
-        fr, crit, problem = stability.check(scene, scene.partitions[p], mdl, layouts[p].held)
+        fr, crit, problem = stability.check(scene, scene.partitions[p], mdl, layouts[p].held,
+                                            layouts[p].n_owned)
         freqs[scene.partitions[p].name] = (fr, crit)
         if problem:
             problems.append(problem)

@@ -122,7 +122,10 @@ def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
 
 def assembled(scene, part):
     """(Frequency, critical step, problem) of a built partition from its operator."""
-    fr = gershgorin(part.Kneg, part.mass, part.fixed_dofs)
+    still = part.fixed_dofs
+    if coupled_fe(scene, part.spec):                    # the core particles held
+        still = still | (np.arange(still.size) >= part.n_own)
+    fr = gershgorin(part.Kneg, part.mass, still)
     return (fr, *verdict(scene, part.spec, fr))
 
 
@@ -131,19 +134,40 @@ def _max():
     return MPI.MAX
 
 
-def check(scene, spec, model, held):
+# The transition scheme (seed 003), from the spectral radius of its system-step
+# map (docs/transition.md): sub-cycled, it is weakly unstable without damping
+# at any step, and stable with a damping ratio >= TRANSITION_XI at the DEM's
+# highest frequency up to omega_max * fdt = 1.23-1.62 with the predictor band
+# motion (bands of 2-4 particle spacings, ratios 2-8, a 10x stiffer lattice),
+# 1.30 linear, 0.70 velocity and 0.23 hold (5-layer band, ratio 4), omega_max
+# being the FE partition's own (band masses and carried bonds included, core
+# particles held).  Its FE step is kept below TRANSITION_OMEGA_H / omega_max,
+# about 6 % under the weakest measured case.
+TRANSITION_OMEGA_H = {"predictor": 1.15, "linear": 1.15, "velocity": 0.65, "hold": 0.2}
+TRANSITION_XI = 0.01
+
+
+def coupled_fe(scene, spec) -> bool:
+    """Whether ``spec`` is the FE side of a transition scheme."""
+    return scene.coupling.scheme == "transition" and spec.method == "fem"
+
+
+def check(scene, spec, model, held, n_owned=None):
     """Stability of partition ``spec`` holding ``held`` nodes of ``model``:
     (Frequency, critical step [s], problem message or None).  The limit is the
     integrator's (2 for explicit Newmark and Verlet, none for implicit average
     acceleration), lowered by Rayleigh damping for explicit ones to
     2 (sqrt(1 + xi^2) - xi) with xi the damping ratio at omega_max.  External
-    nodes count with their masses and the elements the partition holds (for a
-    transition band's FE side: the core particles on their bonds to the band,
-    which is what keeps the coupled sub-cycling stable, docs/transition.md)."""
+    nodes count with their masses, except on a transition scheme's FE side,
+    whose external particles (the first ``n_owned`` held nodes are its own)
+    are held: its limit is at most TRANSITION_OMEGA_H."""
     # what the partition steps: cells for fem, bonds (and overlap cells) for dem
     blocks = model.bond_blocks(held) if spec.method == "dem" else model.stiffness_blocks(held)
     dm = model.dofmap
-    mass = np.where(model.fixed[dm.dofs(held)], np.inf, np.repeat(model.mass[held], dm.counts[held]))
+    still = model.fixed[dm.dofs(held)]
+    if coupled_fe(scene, spec) and n_owned is not None:
+        still = still | (np.arange(still.size) >= dm.count(held[:n_owned]))
+    mass = np.where(still, np.inf, np.repeat(model.mass[held], dm.counts[held]))
     fr = omega_max(blocks, held, mass, dm)
     if fr is None:
         return None, None, None      # decided once the operator exists (verdict)
@@ -157,11 +181,35 @@ def verdict(scene, spec, fr: Frequency):
     if scene.damping.active and spec.integrator != "implicit":
         xi = scene.damping.ratio(fr.omega_max)
         limit = 2.0 * (np.sqrt(1.0 + xi * xi) - xi)
+    coupled = coupled_fe(scene, spec)
+    if coupled:
+        limit = min(limit, TRANSITION_OMEGA_H[scene.coupling.band_motion])
     crit = fr.critical_step(limit)
     dt = spec.ratio * scene.time.dt
     problem = None
     if fr.omega_max * dt >= limit:
+        why = (f"; the transition scheme keeps omega_max * fdt < {limit:.3g}" if coupled else "")
         problem = (f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
                    f"{scene.time.dt:.4g} s) is unstable, critical step {crit:.4g} s "
-                   f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}); reduce time.dt or the ratio")
+                   f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}{why}); reduce time.dt or "
+                   "the ratio")
     return crit, problem
+
+
+def transition_damping(scene, freqs):
+    """The problem with a sub-cycled transition scheme whose stiffness-proportional
+    damping gives less than TRANSITION_XI at the dem partition's omega_max, or None."""
+    if scene.coupling.scheme != "transition" or scene.system_ratio == 1:
+        return None
+    dem = next(p for p in scene.partitions if p.method == "dem")
+    fr = freqs.get(dem.name, (None,))[0]
+    if fr is None or fr.omega_max <= 0:
+        return None
+    need = 2 * TRANSITION_XI / fr.omega_max
+    if scene.damping.beta >= need * (1 - 1e-12):
+        return None
+    return (f"damping.beta: {scene.damping.beta:g} s: the transition scheme sub-cycles (FE step "
+            f"{scene.system_ratio} x the DE step) and needs damping.beta >= {need:.3g} s, a "
+            f"damping ratio >= {TRANSITION_XI:g} at the DEM's highest frequency "
+            f"{fr.omega_max:.4g} rad/s; without it the sub-cycled coupling is weakly unstable "
+            "(docs/transition.md)")

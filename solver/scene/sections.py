@@ -82,9 +82,10 @@ class Coupling:
         "external-data treatment: taylor (one layer following the Taylor predictor from the last "
         "exchange, default), layers (one layer per sub-step, integrated), literal (seed 000: one "
         "layer integrated by the partition's own scheme)", "taylor")
-    band_motion: Literal["predictor", "velocity", "hold"] = key(
+    band_motion: Literal["predictor", "linear", "velocity", "hold"] = key(
         "transition scheme: how band particles move between FE steps: predictor (the FE's own "
         "explicit path u + s v + s^2/2 a, which ends on the FE's next displacement; default), "
+        "linear (straight from the FE's u_n to its u_n+1), "
         "velocity (u + s v: the node velocities of eq. 4 held), hold (positions held until the "
         "next FE step)", "predictor")
 
@@ -279,10 +280,14 @@ class Scene:
         if methods != ["dem", "fem"]:
             fail("partitions", f"the transition scheme couples one fem and one dem partition "
                  f"(given: {', '.join(methods)})")
-        fem = next(p for p in self.partitions if p.method == "fem")
+        i, fem = next((i, p) for i, p in enumerate(self.partitions) if p.method == "fem")
         if fem.integrator != "explicit" or fem.ratio != self.system_ratio:
             fail("partitions", f"transition scheme: fem partition '{fem.name}' must be explicit "
                  f"with the largest ratio ({self.system_ratio}); its step is the FE step fdt")
+        if fem.beta != 0:
+            fail(f"partitions[{i}].beta", f"{fem.beta:g}: the transition scheme's FE step is "
+                 "central difference (beta: 0), so the band path the particles follow ends on "
+                 "the FE's next displacement")
         for p, part in enumerate(self.partitions):
             if part.method == "dem" and part.group != lat.region:
                 fail(f"partitions[{p}].group", f"{part.group!r}: with a transition band a dem "
@@ -318,6 +323,9 @@ class Scene:
             names.add(part.name)
         if self.coupling.scheme in ("staggered", "gc"):
             self._check_staggered()
+        if self.coupling.band_motion != "predictor" and self.coupling.scheme != "transition":
+            fail("coupling.band_motion", f"{self.coupling.band_motion}: only the transition "
+                 "scheme moves a band")
         banded = continuum and self.model.lattice is not None and bool(self.model.lattice.transition)
         if banded or self.coupling.scheme == "transition":
             self._check_transition(banded)
