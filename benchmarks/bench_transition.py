@@ -93,10 +93,10 @@ def main(argv=None):
              "Same DE step 1.4e-8 s, 5357 DE steps to 7.5e-5 s, rectangular pulse, "
              "beta = 2e-8 s; 1 rank.  Seed 003: 84 DEs, DE step 5e-9 s, 21,000 steps; "
              "127.21 s (space) and 56.97 / 50.39 / 45.83 s (ratio 2 / 3 / 4): 0.36 at 5 layers.", "",
-             "| run | layers | FE step ratio | DEs | FE cells | FE steps | DE steps | stepping "
-             "wall [s] | time ratio | stress arrival error A / B / C [%] | stress peak error "
-             "A / B / C [%] | energy after the pulse at A |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| run | layers | FE step ratio | DEs | FE cells | DE step [s] | FE steps | DE steps | "
+             "stepping wall [s] | time ratio | stress arrival error A / B / C [%] | stress peak "
+             "error A / B / C [%] | energy after the pulse at A |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     runs = RUNS[:5] if args.quick else RUNS
     t_ref, curves = None, {}
     for i, (label, layers, ratio, (path, sets)) in enumerate(runs):
@@ -104,7 +104,7 @@ def main(argv=None):
             scene = scene_mod.load(path, COMMON + sets + [f"output.file={tmp}/r{i}.h5"])
             res = run(scene, MPI.COMM_SELF, log=lambda *x: None)
         except (RunFailed, SolverError) as e:
-            lines.append(f"| {label} | {layers} | {ratio} | - | - | - | - | - | - | "
+            lines.append(f"| {label} | {layers} | {ratio} | - | - | - | - | - | - | - | "
                          f"{str(e).split(': ', 1)[-1][:120]} | - | - |")
             print(lines[-1], flush=True)
             continue
@@ -118,7 +118,8 @@ def main(argv=None):
         def per_probe(key):
             return " / ".join(f"{100 * at[p][key]:+.2f}" for p in PROBES)
         lines.append(
-            f"| {label} | {layers} | {ratio} | {n_de} | {mdl_cells} | {steps['fem']} | "
+            f"| {label} | {layers} | {ratio} | {n_de} | {mdl_cells} | {scene.time.dt:.2g} | "
+            f"{steps['fem']} | "
             f"{steps.get('dem', '-')} | {wall:.3f} | {wall / t_ref:.3f} | "
             f"{per_probe('stress_arrival_error')} | {per_probe('stress_peak_error')} | "
             f"{reflected(res):.2e} |")

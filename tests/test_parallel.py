@@ -115,22 +115,28 @@ def test_wait_for_the_slower_rank_is_measured_apart(tmp_path):
 
 def test_transition_zone_on_two_and_three_ranks_matches_one(tmp_path):
     """The transition scheme (seed 003) with FE and DEM on different ranks, and
-    with the FE partition split over two ranks: the probe histories (displacement
-    and stress, in FE and DEM) equal the 1-rank run to 1e-12."""
+    with the FE or the DEM partition split over two ranks (band particles and
+    their cells then sit on different ranks): the probe histories
+    (displacement and stress, in FE and DEM) equal the 1-rank run to 1e-12."""
     raw = raw_scene("wave_bar_transition")
     raw["time"]["end"] = 4.0e-5                  # the pulse is inside the DEM region by then
     out = {}
-    for n in (1, 2, 3):
+    for n, split in ((1, None), (2, None), (3, "fem"), ("3dem", "dem")):
+        ranks = 3 if n == "3dem" else n
         raw["output"] = {"file": str(tmp_path / f"o{n}.h5"), "progress": 0}
-        proc = run_cli([write_scene(tmp_path / f"s{n}.yaml", raw)], n=n if n > 1 else None,
-                       timeout=300)
+        for part in raw["partitions"]:
+            part.pop("ranks", None)
+            if split is not None:
+                part["ranks"] = 2 if part["name"] == split else 1
+        proc = run_cli([write_scene(tmp_path / f"s{n}.yaml", raw)],
+                       n=ranks if ranks > 1 else None, timeout=300)
         assert proc.returncode == 0, proc.stderr
         with h5py.File(tmp_path / f"o{n}.h5") as f:
             out[n] = {(p, k): f[f"probes/{p}/{k}"][()] for p in "ABC"
                       for k in ("displacement", "stress")}
-            if n == 3:
-                assert f["partitions/fem"].attrs["ranks"] == 2
-    for n in (2, 3):
+            if split is not None:
+                assert f[f"partitions/{split}"].attrs["ranks"] == 2
+    for n in (2, 3, "3dem"):
         for key, ref in out[1].items():
             assert np.abs(out[n][key] - ref).max() <= 1e-12 * np.abs(ref).max(), (n, key)
     assert np.abs(out[1][("B", "stress")]).max() > 1e7       # the wave reached the DEM

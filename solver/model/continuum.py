@@ -92,13 +92,24 @@ class ContinuumArrays:
         return out
 
     def stiffness_blocks(self, held: np.ndarray) -> list:
-        """Block sets (global node ids) of the body cells whose nodes are all held
-        (with a transition band, also the bonds carried to its nodes)."""
-        return self._cell_blocks(self.cells, held) + self._cell_blocks(self.carried, held)
+        """Block sets (global node ids) of the body cells whose nodes are all held.
+        With a transition band every held element counts, cells, carried bonds
+        and lattice bonds alike: the FE side holds core particles only as
+        externals, and a single partition over everything (a monolithic
+        reference) is then the whole model."""
+        if self.zone is not None:
+            return self._lattice_blocks(held) + self._cell_blocks(self.cells, held)
+        return self._cell_blocks(self.cells, held)
 
     def bond_blocks(self, held: np.ndarray) -> list:
         """Block sets of the lattice bonds whose ends are held (k n n^T [[1, -1],
-        [-1, 1]]) and of the overlap cells, which both sides share."""
+        [-1, 1]]) and of the overlap cells, which both sides share (with a
+        transition band: every held element, as :meth:`stiffness_blocks`)."""
+        if self.zone is not None:
+            return self.stiffness_blocks(held)
+        return self._lattice_blocks(held)
+
+    def _lattice_blocks(self, held: np.ndarray) -> list:
         out = []
         if self.bonds:
             bi, bj, k = self.bonds
