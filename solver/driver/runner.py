@@ -25,6 +25,7 @@ class RunResult:
     partitions: dict = field(default_factory=dict)
     probes: dict = field(default_factory=dict)
     energy: dict = field(default_factory=dict)
+    broken: np.ndarray | None = None     # [n, 4 + dim] t, midpoint, strain, i, j (breakable bonds)
 
     @property
     def status(self) -> str:
@@ -195,7 +196,7 @@ class Report:
             "layers": len(part.layout.layers), "boundary": part.layout.boundary,
             "omega_max": freqs[part.name][0].omega_max,
             "critical_step": freqs[part.name][1],
-            "exchange_wall_time": x_wall} for part in parts}
+            "exchange_wall_time": x_wall, **bond_attrs(part)} for part in parts}
         t_axis = np.arange(n_sys + 1) * Dt
         gathered, part_attrs = {}, {}
         for pr, pa in comm.allgather((self.probes.histories(t_axis, done), local_parts)):
@@ -204,8 +205,9 @@ class Report:
                 if name in part_attrs:
                     merged = part_attrs[name]
                     merged["ranks"] += 1
-                    for key in ("n_owned", "n_external"):
-                        merged[key] += attrs[key]
+                    for key in ("n_owned", "n_external", "bonds_broken", "released_energy"):
+                        if key in merged:
+                            merged[key] += attrs[key]
                     merged["boundary"] = np.sort(np.concatenate([merged["boundary"],
                                                                  attrs["boundary"]]))
                     for key in ("wall_time", "exchange_wall_time"):
@@ -228,7 +230,31 @@ class Report:
         for name, pa in part_attrs.items():
             attrs[f"steps_{name}"] = pa["steps"]
             attrs[f"wall_time_{name}"] = pa["wall_time"]
-        return RunResult(attrs, part_attrs, histories, self.guard.arrays())
+        return RunResult(attrs, part_attrs, histories, self.guard.arrays(), broken_bonds(parts, comm))
+
+
+def bond_attrs(part) -> dict:
+    """Breakable bonds of a piece: how many broke, the energy they released."""
+    force = part.force
+    if not hasattr(force, "broken"):
+        return {}
+    return {"bonds_broken": len(force.broken), "released_energy": force.released}
+
+
+def broken_bonds(parts, comm):
+    """Every broken bond of the run, by time (rank 0), or None without breakable bonds."""
+    local = [row for p in parts for row in getattr(p.force, "broken", [])]
+    breakable = any(getattr(p.force, "break_strain", None) is not None for p in parts)
+    if comm.size > 1:
+        chunks = comm.gather((breakable, local), root=0)
+        if comm.rank != 0:
+            return None
+        breakable = any(b for b, _ in chunks)
+        local = [row for _, rows in chunks for row in rows]
+    if not breakable:
+        return None
+    rows = np.array(sorted(local), dtype=float)
+    return rows if rows.size else np.zeros((0, 0))
 
 
 def model_counts(mdl, comm) -> dict:

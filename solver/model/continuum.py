@@ -38,6 +38,8 @@ class ContinuumArrays:
     carried: list = ()           # ("bond", conn, RankOneBonds): bonds of band particles on nodes
     zone: object = None          # the Transition (model.lattice.transition), else None
     material_D: np.ndarray = None  # elasticity matrix (Voigt), for stresses
+    bond_geometry: str = "linear"  # lattice bonds: linear (small strain) or nonlinear
+    break_strain: float = None     # lattice bonds break beyond this strain (nonlinear)
 
     @property
     def n_nodes(self) -> int:
@@ -274,8 +276,11 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
     bonds, overlap = (), ()
     if spec.lattice is not None:
         bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells, reach)
+    lat = spec.lattice
     return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
-                           np.zeros(n), bonds, overlap, material_D=mat.D())
+                           np.zeros(n), bonds, overlap, material_D=mat.D(),
+                           bond_geometry=lat.geometry if lat else "linear",
+                           break_strain=lat.break_strain if lat else None)
 
 
 def _fixed(scene, mesh, n_nodes):
@@ -301,11 +306,12 @@ def _with_zone(scene, mesh, zone, cells, mass):
                          "or coarsen the band")
     n_nodes = zone.n_mesh + zone.n_core
     n = n_nodes * dim
+    lat = scene.model.lattice
     return ContinuumArrays(dim, np.concatenate([mesh.points, zone.points]),
                            np.concatenate([mass, zone.mass]), cells,
                            _fixed(scene, mesh, n_nodes), tuple(_loads(scene, mesh)),
                            np.zeros(n), np.zeros(n), zone.bonds, (), zone.blocks, zone,
-                           scene.model.material.elastic().D())
+                           scene.model.material.elastic().D(), lat.geometry, lat.break_strain)
 
 
 def _loads(scene, mesh):

@@ -10,6 +10,8 @@ interface of :mod:`solver.partitions.force`.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from solver.partitions.force import LinearForce
 from solver.partitions.partition import Partition
 
@@ -38,4 +40,26 @@ class DemPartition(Partition):
                       f"{', '.join(self.fields)}",
                       f"bond operator {B.getSize()[0]}x{B.getSize()[0]} (type {B.getType()}, "
                       f"block size {B.getBlockSize()})"]
-        return LinearForce(B, blocks)
+        if getattr(model, "bond_geometry", "linear") == "linear":
+            return LinearForce(B, blocks)
+        return self._nonlinear(model, blocks, B)
+
+    def _nonlinear(self, model, blocks, B):
+        """Lattice bonds from the current configuration (and breakage); the other
+        elements keep a linear operator; B (all of them, at rest) is the tangent."""
+        from solver.model.continuum import BondStiffness
+        from solver.partitions.bonds import BondForce
+        lattice = [(c, k) for c, k in blocks if isinstance(k, BondStiffness)]
+        others = [(c, k) for c, k in blocks if not isinstance(k, BondStiffness)]
+        conn = np.concatenate([c for c, _ in lattice]) if lattice else np.zeros((0, 2), np.int64)
+        stiff = lattice[0][1] if lattice else None
+        if len(lattice) > 1:
+            stiff = BondStiffness(stiff.points, conn, np.concatenate([k.k for _, k in lattice]))
+        other = self.operator(others, scale=-1.0) if others else None
+        force = BondForce(self, (conn, stiff), other, others, B, model.break_strain)
+        strain = (f", breaking beyond strain {model.break_strain:g}"
+                  if model.break_strain is not None else "")
+        self.built.append(f"{len(force.k)} lattice bonds from the current configuration{strain}"
+                          + (f", {int(force._ghost is not None and force._g_arr.size // self.dof)}"
+                             " ghost particles" if force._ghost is not None else ""))
+        return force

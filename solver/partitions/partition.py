@@ -198,8 +198,18 @@ class Partition:
 
     # ---------------------------------------------------------------- physics
     def residual(self, t, u, v):
-        """r = f(t) - K u - C v, C = alpha M + beta K (undamped partitions ignore v)."""
-        if self.damping and v is not None:
+        """r = f(t) - K u - C v, C = alpha M + beta K (undamped partitions ignore v).
+        A nonlinear force is evaluated at u (at time t, when bonds break), its
+        stiffness-proportional damping with the tangent at rest."""
+        if not self.force.linear:
+            self.force.now = t
+            self._internal(u, self.r)
+            if self.damping and v is not None:
+                self.force.tangent().mult(v, self.am_v)            # -K0 v
+                self.r.axpy(self.damping.beta, self.am_v)
+                self.am_v.pointwiseMult(self.alpha_m, v)
+                self.r.axpy(-1.0, self.am_v)
+        elif self.damping and v is not None:
             self.uv.waxpy(self.damping.beta, v, u)
             self._internal(self.uv, self.r)
             self.am_v.pointwiseMult(self.alpha_m, v)

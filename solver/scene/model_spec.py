@@ -154,6 +154,14 @@ class LatticeSpec:
     E: float | None = key("Young's modulus of the lattice [Pa] when it differs from the model's "
                           "material (a stiffer or softer DEM region); default: model.material.E",
                           None, positive=True)
+    geometry: Literal["linear", "nonlinear"] = key(
+        "linear: bonds act on the small-strain displacement (one assembled operator); "
+        "nonlinear: each bond pulls along its current direction with its current length "
+        "(large rotations exert no force), needed for break_strain", "linear")
+    break_strain: float | None = key(
+        "nonlinear bonds break for good when their strain (L - L0)/L0 exceeds this; the "
+        "released energy and every break (time, place, strain) are recorded", None,
+        positive=True)
     transition: str | None = key(
         "physical group of the transition band (seed 003): one layer of coarse cells around "
         "the region that the lattice overlaps; its particles move with their cell (shape-function "
@@ -162,6 +170,11 @@ class LatticeSpec:
     kind: Literal["square"] = key("square: square lattice with diagonal bonds in 2D (nu = 1/3 "
                                   "plane stress, 1/4 plane strain), simple cubic with face "
                                   "diagonals in 3D (nu = 1/4)", "square")
+
+    def validate(self, path):
+        if self.break_strain is not None and self.geometry != "nonlinear":
+            fail(f"{path}.break_strain", "needs geometry: nonlinear (a small-strain bond does not "
+                 "know its current length)")
 
 
 @dataclass(frozen=True)

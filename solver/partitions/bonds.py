@@ -1,0 +1,150 @@
+"""Bonds from the current configuration, and their breakage
+(``model.lattice.geometry: nonlinear``, ``model.lattice.break_strain``).
+
+A bond (i, j) of stiffness k and rest length L0 pulls with
+f = k (L - L0) d / L along its current direction d = x_j - x_i, L = |d|, so a
+rigid rotation of a bonded block, however large, exerts no force (the small-
+strain operator of :mod:`solver.partitions.force` does not have this
+property; for small strains the two agree to first order).  A bond whose
+strain (L - L0) / L0 exceeds ``break_strain`` breaks for good: it is recorded
+(time, midpoint, strain, particles) and the energy 1/2 k (L - L0)^2 it held
+counts as released, so kinetic + strain + released = external work.
+
+Elements that are not lattice bonds (overlap cells, bonds carried to a
+transition band's nodes) stay linear: one MatMult with their operator.
+Particles of another piece of the same partition (the partition split over
+ranks) are ghosts, refreshed by one VecScatter per force evaluation.  All
+pieces that hold a bond evaluate it from the same positions, so they agree
+on when it breaks.  Numpy on arrays of bonds: no per-bond Python loop.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from solver.petscutil import init, vec_on
+
+
+class BondForce:
+    """f_int(u) of a dem partition with geometrically nonlinear, breakable bonds."""
+
+    linear = False
+
+    def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain):
+        P = init()
+        self.part = part
+        self.operator = linear_op            # the other elements' -K (None if there are none)
+        self.blocks = other_blocks
+        self._tangent = tangent              # -K of everything at rest (stability, damping)
+        self.break_strain = break_strain
+        dim = part.dof
+        self.dim = dim
+        conn, stiff = lattice_block
+        held = part.layout.held
+        local = {int(n): i for i, n in enumerate(held.tolist())}
+        # bonds with at least one owned end: this piece's rows
+        owned = np.zeros(int(max(conn.max(initial=0), held.max(initial=0))) + 1, bool)
+        owned[part.layout.owned] = True
+        mine = owned[conn[:, 0]] | owned[conn[:, 1]]
+        conn, k = conn[mine], stiff.k[mine]
+        ghosts = np.setdiff1d(np.unique(conn), held)
+        for g in ghosts.tolist():
+            local[int(g)] = len(local)
+        self.i = np.array([local[int(a)] for a in conn[:, 0]], dtype=np.int64)
+        self.j = np.array([local[int(b)] for b in conn[:, 1]], dtype=np.int64)
+        self.k = k
+        self.nodes = conn
+        points = stiff.points
+        self.X = np.concatenate([points[held], points[ghosts]]) if ghosts.size else points[held]
+        d0 = self.X[self.j] - self.X[self.i]
+        self.L0 = np.linalg.norm(d0, axis=1)
+        self.alive = np.ones(len(k), bool)
+        self.n_held = held.size
+        self.broken = []                     # (t, midpoint..., strain, node i, node j)
+        self.released = 0.0                  # energy of the broken bonds [J]
+        self.now = 0.0
+        self._ghost = None
+        if part.comm.size > 1 or ghosts.size:
+            number = part.dist.number[ghosts]
+            idx = (number[:, None] * dim + np.arange(dim)).ravel().astype(P.IntType)
+            self._g_arr = np.zeros(idx.size)
+            self._g_vec = vec_on(self._g_arr, P.COMM_SELF)
+            self._is = P.IS().createGeneral(idx, comm=P.COMM_SELF)
+            self._ghost = P.Scatter().create(part.u, self._is, self._g_vec, None)
+            self._modes = (P.InsertMode.INSERT_VALUES, P.ScatterMode.FORWARD)
+        # each bond's rows kept here: only held rows (ghost rows belong to other pieces)
+        self._fi = self.i < self.n_held
+        self._fj = self.j < self.n_held
+        self._ri, self._rj = self.i[self._fi], self.j[self._fj]
+
+    # ---------------------------------------------------------------- state
+    def _positions(self, u_vec):
+        U = u_vec.getArray(readonly=True)
+        if self._ghost is not None:
+            self._ghost.scatter(u_vec, self._g_vec, *self._modes)
+            U = np.concatenate([U, self._g_arr])
+        return self.X + U.reshape(-1, self.dim)
+
+    def _bonds(self, u_vec):
+        x = self._positions(u_vec)
+        d = x[self.j] - x[self.i]
+        L = np.linalg.norm(d, axis=1)
+        return x, d, L
+
+    def internal(self, u_vec, out_vec):
+        """out = f_int(u); bonds beyond break_strain break first (at ``now``)."""
+        x, d, L = self._bonds(u_vec)
+        stretch = L - self.L0
+        if self.break_strain is not None:
+            snap = self.alive & (stretch > self.break_strain * self.L0)
+            if snap.any():
+                self._break(np.flatnonzero(snap), x, stretch)
+        scale = np.where(self.alive, self.k * stretch / np.where(L > 0, L, 1.0), 0.0)
+        f = scale[:, None] * d                                     # force on i (towards j)
+        n, dim = self.n_held, self.dim
+        out = np.empty((n, dim))
+        for c in range(dim):                                       # bincount: no add.at
+            out[:, c] = (np.bincount(self._ri, f[self._fi, c], minlength=n) -
+                         np.bincount(self._rj, f[self._fj, c], minlength=n))
+        if self.operator is not None:
+            self.operator.mult(u_vec, out_vec)
+            out_vec.getArray()[:] += out.ravel()
+        else:
+            out_vec.getArray()[:] = out.ravel()
+
+    def _break(self, which, x, stretch):
+        self.alive[which] = False
+        mid = 0.5 * (x[self.i[which]] + x[self.j[which]])
+        strain = stretch[which] / self.L0[which]
+        # the energy is counted once: by the piece that owns the bond's first node
+        first = self.i[which] < self.part.layout.n_owned
+        self.released += float(0.5 * np.sum(self.k[which][first] * stretch[which][first] ** 2))
+        for w, m, s, own in zip(which.tolist(), mid, strain, first):
+            if own:
+                self.broken.append((self.now, *m.tolist(), float(s), int(self.nodes[w, 0]),
+                                    int(self.nodes[w, 1])))
+
+    def tangent(self):
+        """dF/du at rest: the small-strain operator (stability bounds, damping)."""
+        return self._tangent
+
+    def energy(self, part) -> float:
+        """Strain energy of the live bonds, half to each end this piece owns,
+        plus the other elements' (owned rows)."""
+        _, _, L = self._bonds(part.u)
+        e = np.where(self.alive, 0.5 * self.k * (L - self.L0) ** 2, 0.0)
+        owned = part.layout.n_owned                        # nodes (part.n_own counts DOFs)
+        share = 0.5 * ((self.i < owned).astype(float) + (self.j < owned).astype(float))
+        total = float(np.dot(e, share))
+        if self.operator is not None:
+            n = part.n_own
+            self.operator.mult(part.u, part.r)
+            total -= 0.5 * float(np.dot(part.U[:n], part.R[:n]))
+        return total
+
+    def destroy(self):
+        for obj in (self.operator, self._tangent):
+            if obj is not None:
+                obj.destroy()
+        if self._ghost is not None:
+            for obj in (self._ghost, self._is, self._g_vec):
+                obj.destroy()

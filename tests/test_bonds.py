@@ -1,0 +1,155 @@
+"""Lattice bonds from the current configuration, and their breakage
+(solver/partitions/bonds.py; issue 10's first part)."""
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import raw_scene, run_cli, run_scene, write_scene
+
+C = np.sqrt(70e9 / 2700.0)
+
+
+def nonlinear(**over):
+    raw = raw_scene("wave_bar_transition")
+    raw["model"]["lattice"]["geometry"] = "nonlinear"
+    for key, value in over.items():
+        node = raw
+        *head, last = key.split("__")
+        for k in head:
+            node = node[k] if not k.isdigit() else node[int(k)]
+        node[last] = value
+    return raw
+
+
+def dem_of(raw, tmp_path):
+    from mpi4py import MPI
+
+    from solver import scene as scene_mod
+    from solver.driver.build import build
+    from solver.model import binding
+    from solver.petscutil import init
+    init([])
+    raw = dict(raw, output={"file": str(tmp_path / "b.h5")})
+    asm = build(binding.bind(scene_mod.from_dict(raw)), MPI.COMM_SELF)
+    return asm, next(p for p in asm.parts if p.method == "dem")
+
+
+def lattice_force(dem, U):
+    """The lattice bonds' part of the dem force at displacement U (held DOFs)."""
+    dem.U[:] = U
+    dem.force.internal(dem.u, dem.r)
+    total = dem.R.copy()
+    dem.force.operator.mult(dem.u, dem.r)          # the linear elements (carried bonds)
+    return total - dem.R
+
+
+def test_a_large_rigid_rotation_exerts_no_force(tmp_path):
+    """A 90-degree rotation of every particle: the nonlinear bonds exert nothing
+    (1e-9 of one bond's k a), the small-strain operator a force of order k a."""
+    asm, dem = dem_of(nonlinear(), tmp_path)
+    X = dem.force.X[:dem.force.n_held]
+    centre = X.mean(axis=0)
+    R = np.array([[0.0, -1.0], [1.0, 0.0]])
+    U = ((X - centre) @ R.T + centre - X).ravel()
+    f = lattice_force(dem, U)
+    scale = dem.force.k.max() * 2e-4
+    assert np.abs(f[:2 * dem.n_own]).max() < 1e-9 * scale
+    dem.force.tangent().mult(dem.u, dem.r)
+    assert np.abs(dem.R[:2 * dem.n_own]).max() > 0.1 * scale
+    asm.destroy()
+
+
+def test_small_strains_agree_with_the_linear_operator(tmp_path):
+    """A uniform stretch of 1e-6 plus shear: nonlinear bonds = the small-strain
+    lattice operator to 1e-5 relative (second order in the strain)."""
+    asm, dem = dem_of(nonlinear(), tmp_path)
+    X = dem.force.X[:dem.force.n_held]
+    eps = 1e-6
+    U = np.stack([eps * X[:, 0] + 0.5 * eps * X[:, 1], -0.3 * eps * X[:, 1]], 1).ravel()
+    f = lattice_force(dem, U)
+    # the same through the linear lattice bonds alone: tangent minus the other elements
+    dem.force.tangent().mult(dem.u, dem.r)
+    lin = dem.R.copy()
+    dem.force.operator.mult(dem.u, dem.r)
+    lin -= dem.R
+    n = 2 * dem.n_own
+    assert np.abs(f[:n] - lin[:n]).max() < 1e-5 * np.abs(lin[:n]).max()
+    asm.destroy()
+
+
+def tension(tmp_path, n=None, dem_ranks=None):
+    """A tension pulse through the bar at FE step = DE step (no damping needed):
+    the x-bonds at the DEM region's first column break as it arrives."""
+    raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
+                    damping__beta=0.0)
+    raw["loads"][0]["direction"] = [-1.0, 0.0]
+    raw["time"]["end"] = 3.4e-5                   # the breaks start at 31.7 us
+    if dem_ranks:
+        raw["partitions"][0]["ranks"], raw["partitions"][1]["ranks"] = 1, dem_ranks
+    if n is None:
+        return run_scene(raw, tmp_path)
+    raw["output"] = {"file": str(tmp_path / f"t{n}.h5"), "progress": 0}
+    proc = run_cli([write_scene(tmp_path / f"t{n}.yaml", raw)], n=n, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(tmp_path / f"t{n}.h5") as f:
+        return (f["broken_bonds"][()], f["probes/A/t"][()],
+                *(f[f"probes/{p}/displacement"][()] for p in "ABC"))
+
+
+def test_bonds_break_when_the_tension_pulse_arrives_and_the_energy_adds_up(tmp_path):
+    res = tension(tmp_path)
+    broken = res.broken
+    assert broken.shape[1] == 6 and len(broken) == res.partitions["dem"]["bonds_broken"] > 0
+    t, x, strain = broken[:, 0], broken[:, 1], broken[:, 3]
+    assert np.all(strain > 3e-4) and np.all(strain < 3.2e-4)      # caught within a step
+    # the first ones break where the pulse enters the core, when it gets there
+    # (its front, smeared over the coarse cells, reaches 2/3 of the plateau)
+    first = np.argmin(t)
+    assert abs(t[first] - x[first] / C) < 0.03 * x[first] / C
+    assert np.all(x < 0.1625) and np.all(x > 0.1575)
+    e = res.energy
+    released = res.partitions["dem"]["released_energy"]
+    work = e["external_work"][-1]
+    assert released > 0
+    assert abs(e["total"][-1] + released - work) < 1e-3 * work
+
+
+def test_breakage_on_one_and_three_ranks_agrees(tmp_path):
+    """The dem partition split over two ranks (ghost particles by VecScatter):
+    the same bonds break at the same system steps (where and at what strain to
+    1e-12); the histories agree to 1e-12 of the peak displacement until the
+    first break and to 1e-9 after it (round-off around the breaks)."""
+    one = tension(tmp_path, n=1)
+    three = tension(tmp_path, n=3, dem_ranks=2)
+    assert one[0].shape == three[0].shape and len(one[0]) > 0
+    a, b = (x[np.lexsort((x[:, 5], x[:, 4], x[:, 0]))] for x in (one[0], three[0]))
+    assert np.array_equal(a[:, [0, 4, 5]], b[:, [0, 4, 5]])         # which bonds, when
+    assert np.abs(a[:, 1:4] - b[:, 1:4]).max() <= 1e-12 * np.abs(a[:, 1:4]).max()
+    t = one[1]
+    before = t < a[:, 0].min()
+    scale = max(np.abs(h).max() for h in one[2:])                  # the peak displacement
+    for x, y in zip(one[2:], three[2:]):
+        assert np.abs(x - y)[before].max() <= 1e-12 * scale       # until the first break
+        assert np.abs(x - y).max() <= 1e-9 * scale                 # and after it
+
+
+@pytest.mark.parametrize("sets,message", [
+    (["model.lattice.geometry=linear", "model.lattice.break_strain=1e-3"],
+     "model.lattice.break_strain: needs geometry: nonlinear"),
+    (["model.lattice.geometry=nonlinear", "model.lattice.break_strain=-1e-3"],
+     "model.lattice.break_strain"),
+    (["model.lattice.geometry=nonlinear", "model.lattice.break_strain=1e-3",
+      "output.checkpoint.every=100"], "output.checkpoint: checkpoints do not keep broken bonds"),
+])
+def test_bad_bond_input(sets, message, tmp_path):
+    out = tmp_path / "o.h5"
+    args = ["configs/wave_bar_transition.yaml", "--set", f"output.file={out}"]
+    for s in sets:
+        args += ["--set", s]
+    proc = run_cli(args)
+    assert proc.returncode == 2, proc.stderr
+    line, = proc.stderr.strip().splitlines()
+    assert message in line, line
+    assert not out.exists()
