@@ -6,7 +6,8 @@ Between system steps a run is determined by
   can restart on another rank count: external copies are refreshed from their
   owners by one exchange, which is what the last system step ended with);
 * per partition: steps done, external work and the last load values of every
-  load function (the work increment's f_n);
+  load function (the work increment's f_n); the broken bonds (time, midpoint,
+  strain, particles) of breakable lattices;
 * the energy guard: its samples so far, initial energy, largest |work|;
 * the probe histories so far and the number of system steps done.
 
@@ -57,19 +58,20 @@ def collect(k: int, parts, guard, comm) -> dict | None:
     for p in parts:
         n = p.n_own
         local.append((p.name, p.layout.owned, p.state[:, :n].copy(), p.work, p.steps,
-                      p.load_memory()))
+                      p.load_memory(), list(getattr(p.force, "broken", ()))))
     chunks = comm.gather(local, root=0) if comm.size > 1 else [local]
     if comm.rank != 0:
         return None
     merged: dict = {}
     for chunk in chunks:
-        for name, nodes, uva, work, steps, loads in chunk:
+        for name, nodes, uva, work, steps, loads, broken in chunk:
             m = merged.setdefault(name, {"nodes": [], "uva": [], "work": 0.0, "steps": steps,
-                                         "loads": {}})
+                                         "loads": {}, "broken": []})
             m["nodes"].append(nodes)
             m["uva"].append(uva.reshape(3, nodes.size, -1))
             m["work"] += work
             m["loads"].update(loads)
+            m["broken"] += broken
     parts_out = {}
     for name, m in merged.items():
         nodes = np.concatenate(m["nodes"])
@@ -78,7 +80,8 @@ def collect(k: int, parts, guard, comm) -> dict | None:
         keys = np.array(sorted(m["loads"]), dtype=np.int64)
         parts_out[name] = {"nodes": nodes[order], "uva": uva, "work": m["work"],
                            "steps": m["steps"], "load_keys": keys,
-                           "load_values": np.array([m["loads"][int(i)] for i in keys])}
+                           "load_values": np.array([m["loads"][int(i)] for i in keys]),
+                           "broken": np.array(sorted(m["broken"]), dtype=float)}
     return {"step": k, "parts": parts_out, "guard": guard.memory()}
 
 
@@ -96,6 +99,8 @@ def restore(data: dict, parts, scheme, guard):
         p.work = float(saved["work"]) if p.layout.piece == 0 else 0.0
         p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
                                        saved["load_values"].tolist())))
+        if hasattr(p.force, "restore_broken"):
+            p.force.restore_broken(saved["broken"])
     scheme.synchronise()
     guard.restore(data["guard"])
 
@@ -109,7 +114,7 @@ def write_group(f, data: dict, meta: dict):
         g.attrs[k] = v
     for name, part in data["parts"].items():
         pg = g.create_group(f"partitions/{name}")
-        for k in ("nodes", "uva", "load_keys", "load_values"):
+        for k in ("nodes", "uva", "load_keys", "load_values", "broken"):
             pg.create_dataset(k, data=part[k])
         pg.attrs["work"] = part["work"]
         pg.attrs["steps"] = part["steps"]
@@ -166,8 +171,8 @@ def _read(path: str, scene) -> dict:
                                  f"({scene.n_system_steps} system steps)")
             parts = {}
             for name, pg in g["partitions"].items():
-                parts[name] = {k2: pg[k2][()] for k2 in ("nodes", "uva", "load_keys",
-                                                        "load_values")}
+                parts[name] = {k2: pg[k2][()] if k2 in pg else np.zeros(0)
+                               for k2 in ("nodes", "uva", "load_keys", "load_values", "broken")}
                 parts[name].update(work=float(pg.attrs["work"]), steps=int(pg.attrs["steps"]))
             gg = g["guard"]
             guard = {"series": {k2: gg[k2][()].tolist() for k2 in gg},

@@ -123,6 +123,23 @@ class BondForce:
                 self.broken.append((self.now, *m.tolist(), float(s), int(self.nodes[w, 0]),
                                     int(self.nodes[w, 1])))
 
+    def restore_broken(self, rows):
+        """Bonds broken before a checkpoint (rows as recorded, any rank layout):
+        broken again here, their record and released energy on the piece that
+        owns their first particle."""
+        rows = np.asarray(rows, dtype=float).reshape(-1, 4 + self.dim) if len(rows) else \
+            np.zeros((0, 4 + self.dim))
+        pairs = {(int(a), int(b)) for a, b in rows[:, -2:].astype(np.int64).tolist()}
+        key = list(zip(self.nodes[:, 0].tolist(), self.nodes[:, 1].tolist()))
+        self.alive = np.array([pair not in pairs for pair in key], dtype=bool)
+        owned = set(self.part.layout.owned.tolist())
+        mine = [r for r in rows.tolist() if int(r[-2]) in owned]
+        self.broken = [tuple(r[:-2]) + (int(r[-2]), int(r[-1])) for r in mine]
+        at = {pair: b for b, pair in enumerate(key)}
+        self.released = float(sum(0.5 * self.k[at[(int(r[-2]), int(r[-1]))]] *
+                                  (r[-3] * self.L0[at[(int(r[-2]), int(r[-1]))]]) ** 2
+                                  for r in mine))
+
     def tangent(self):
         """dF/du at rest: the small-strain operator (stability bounds, damping)."""
         return self._tangent

@@ -351,11 +351,6 @@ class Scene:
             if probe.name in seen:
                 fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
             seen.add(probe.name)
-        lat = self.model.lattice if continuum else None
-        if lat is not None and lat.break_strain is not None and self.output and \
-                self.output.checkpoint:
-            fail("output.checkpoint", "checkpoints do not keep broken bonds yet "
-                 "(model.lattice.break_strain)")
         if self.output and self.output.fields and not continuum:
             fail("output.fields", "field output is for continuum models")
         if self.reference == "modal" and self.damping.active and self.loads:
