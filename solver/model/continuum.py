@@ -40,6 +40,7 @@ class ContinuumArrays:
     material_D: np.ndarray = None  # elasticity matrix (Voigt), for stresses
     bond_geometry: str = "linear"  # lattice bonds: linear (small strain) or nonlinear
     break_strain: float = None     # lattice bonds break beyond this strain (nonlinear)
+    contact: tuple = None          # (radius, kn, skin) of particle contact, or None
 
     @property
     def n_nodes(self) -> int:
@@ -280,7 +281,17 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
     return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
                            np.zeros(n), bonds, overlap, material_D=mat.D(),
                            bond_geometry=lat.geometry if lat else "linear",
-                           break_strain=lat.break_strain if lat else None)
+                           break_strain=lat.break_strain if lat else None,
+                           contact=contact_of(lat) if lat else None)
+
+
+def contact_of(lat):
+    """(radius, kn, skin) of ``model.lattice.contact``, defaults filled, or None."""
+    c = lat.contact
+    if c is None:
+        return None
+    radius = c.radius if c.radius is not None else 0.5 * lat.spacing
+    return (radius, c.stiffness, c.skin if c.skin is not None else 0.3 * radius)
 
 
 def _fixed(scene, mesh, n_nodes):
@@ -311,7 +322,8 @@ def _with_zone(scene, mesh, zone, cells, mass):
                            np.concatenate([mass, zone.mass]), cells,
                            _fixed(scene, mesh, n_nodes), tuple(_loads(scene, mesh)),
                            np.zeros(n), np.zeros(n), zone.bonds, (), zone.blocks, zone,
-                           scene.model.material.elastic().D(), lat.geometry, lat.break_strain)
+                           scene.model.material.elastic().D(), lat.geometry, lat.break_strain,
+                           contact_of(lat))
 
 
 def _loads(scene, mesh):

@@ -29,7 +29,8 @@ class BondForce:
 
     linear = False
 
-    def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain):
+    def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
+                 contact=None):
         P = init()
         self.part = part
         self.operator = linear_op            # the other elements' -K (None if there are none)
@@ -75,6 +76,11 @@ class BondForce:
         self._fi = self.i < self.n_held
         self._fj = self.j < self.n_held
         self._ri, self._rj = self.i[self._fi], self.j[self._fj]
+        self.contact = None
+        if contact is not None:                  # (radius, kn, skin): the lattice's particles
+            from solver.partitions.contact import Contact
+            particles = np.unique(np.concatenate([self.i, self.j]))
+            self.contact = Contact(particles, *contact, self.i, self.j)
 
     # ---------------------------------------------------------------- state
     def _positions(self, u_vec):
@@ -105,6 +111,8 @@ class BondForce:
         for c in range(dim):                                       # bincount: no add.at
             out[:, c] = (np.bincount(self._ri, f[self._fi, c], minlength=n) -
                          np.bincount(self._rj, f[self._fj, c], minlength=n))
+        if self.contact is not None:
+            self.contact.forces(x, self.alive, out, n)
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
             out_vec.getArray()[:] += out.ravel()
@@ -152,6 +160,8 @@ class BondForce:
         owned = part.layout.n_owned                        # nodes (part.n_own counts DOFs)
         share = 0.5 * ((self.i < owned).astype(float) + (self.j < owned).astype(float))
         total = float(np.dot(e, share))
+        if self.contact is not None:             # of the last force evaluation (one piece)
+            total += self.contact.energy
         if self.operator is not None:
             n = part.n_own
             self.operator.mult(part.u, part.r)

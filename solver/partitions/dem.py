@@ -20,6 +20,12 @@ class DemPartition(Partition):
     method = "dem"
 
     def build_force(self, model, layout):
+        self.force_model = model                 # (its contact settings: the stability bound)
+        if getattr(model, "contact", None) is not None and self.comm.size > 1:
+            from solver.errors import SceneError
+            raise SceneError(f"model.lattice.contact: dem partition '{self.name}' is split over "
+                             f"{self.comm.size} ranks; contact needs it on one rank for now "
+                             "(partitions[].ranks: 1)")
         n_p, dof = layout.n_held, self.dof
         # [particle, component] views; with differing DOF counts, flat views and
         # each particle's first DOF
@@ -56,9 +62,13 @@ class DemPartition(Partition):
         if len(lattice) > 1:
             stiff = BondStiffness(stiff.points, conn, np.concatenate([k.k for _, k in lattice]))
         other = self.operator(others, scale=-1.0) if others else None
-        force = BondForce(self, (conn, stiff), other, others, B, model.break_strain)
+        contact = getattr(model, "contact", None)
+        force = BondForce(self, (conn, stiff), other, others, B, model.break_strain, contact)
         strain = (f", breaking beyond strain {model.break_strain:g}"
                   if model.break_strain is not None else "")
+        if contact is not None:
+            strain += (f"; contact of unbonded particles (radius {contact[0]:g} m, k_n "
+                       f"{contact[1]:g} N/m, k-d tree with skin {contact[2]:g} m)")
         self.built.append(f"{len(force.k)} lattice bonds from the current configuration{strain}"
                           + (f", {int(force._ghost is not None and force._g_arr.size // self.dof)}"
                              " ghost particles" if force._ghost is not None else ""))

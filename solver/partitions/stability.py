@@ -126,6 +126,8 @@ def assembled(scene, part):
     if coupled_fe(scene, part.spec):                    # the core particles held
         still = still | (np.arange(still.size) >= part.n_own)
     fr = gershgorin(part.Kneg, part.mass, still)
+    if part.method == "dem":
+        fr = with_contact(fr, part.force_model, np.where(still, np.inf, part.mass))
     return (fr, *verdict(scene, part.spec, fr))
 
 
@@ -171,7 +173,24 @@ def check(scene, spec, model, held, n_owned=None):
     fr = omega_max(blocks, held, mass, dm)
     if fr is None:
         return None, None, None      # decided once the operator exists (verdict)
+    if spec.method == "dem":
+        fr = with_contact(fr, model, mass)
     return (fr, *verdict(scene, spec, fr))
+
+
+def with_contact(fr: Frequency, model, mass) -> Frequency:
+    """``fr`` raised for particle contact (model.lattice.contact): lambda_max of
+    the bonds plus 2 z k_n / m_min, z the largest coordination of spheres."""
+    contact = getattr(model, "contact", None)
+    if contact is None:
+        return fr
+    from solver.partitions.contact import coordination
+    m = np.asarray(mass, dtype=float)
+    m = m[np.isfinite(m) & (m > 0)]
+    if not m.size:
+        return fr
+    lam = fr.omega_max ** 2 + 2 * coordination(model.dof) * contact[1] / m.min()
+    return Frequency(float(np.sqrt(lam)), fr.method + " + contact bound")
 
 
 def verdict(scene, spec, fr: Frequency):

@@ -146,6 +146,16 @@ class Material:
 
 
 @dataclass(frozen=True)
+class ContactSpec:
+    stiffness: float = key("normal contact stiffness k_n [N/m] of two touching particles",
+                           positive=True)
+    radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
+                               "neighbours just touch at rest)", None, positive=True)
+    skin: float | None = key("neighbour-list skin [m]: the k-d tree is rebuilt when a particle "
+                             "has moved half of it; default 0.3 x radius", None, positive=True)
+
+
+@dataclass(frozen=True)
 class LatticeSpec:
     region: str = key("physical group (cells) filled with the bonded lattice")
     spacing: float = key("lattice spacing a [m]; without a transition band the mesh must have a "
@@ -162,6 +172,9 @@ class LatticeSpec:
         "nonlinear bonds break for good when their strain (L - L0)/L0 exceeds this; the "
         "released energy and every break (time, place, strain) are recorded", None,
         positive=True)
+    contact: ContactSpec | None = key(
+        "contact of particles that share no live bond (linear spring k_n on the overlap of "
+        "spheres); needs geometry: nonlinear", None)
     transition: str | None = key(
         "physical group of the transition band (seed 003): one layer of coarse cells around "
         "the region that the lattice overlaps; its particles move with their cell (shape-function "
@@ -172,6 +185,9 @@ class LatticeSpec:
                                   "diagonals in 3D (nu = 1/4)", "square")
 
     def validate(self, path):
+        if self.contact is not None and self.geometry != "nonlinear":
+            fail(f"{path}.contact", "needs geometry: nonlinear (contact follows the particles' "
+                 "current positions)")
         if self.break_strain is not None and self.geometry != "nonlinear":
             fail(f"{path}.break_strain", "needs geometry: nonlinear (a small-strain bond does not "
                  "know its current length)")
