@@ -42,6 +42,8 @@ from solver import scene as scene_mod
 from solver.errors import RunFailed, SolverError
 from solver.petscutil import init
 
+import tables                  # noqa: E402  (benchmarks/tables.py, beside this script)
+
 PROBES = ("A", "B", "C")
 COMMON = ["time.dt=1.4e-8", "damping.beta=2e-8", "output.progress=0"]
 PULSE = ("loads=[{group: left, kind: rectangular, amplitude: 1.0e4, duration: 1.5e-5, "
@@ -128,12 +130,8 @@ def main(argv=None):
                 "ratio 1" not in label:
             curves[label] = {p: (res.probes[p]["t"], res.probes[p]["stress"],
                                  res.probes[p].get("reference_stress")) for p in PROBES}
-    text = "\n".join(lines)
-    out = Path("results") / "bench_transition.md"
-    out.parent.mkdir(exist_ok=True)
-    out.write_text(text + "\n")
+    out = tables.write("bench_transition", lines)
     plot(curves, out.with_suffix(".png"))
-    print(text)
 
 
 def plot(curves, path):

@@ -29,6 +29,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from solver import scene as scene_mod                    # noqa: E402
 from solver.petscutil import init                        # noqa: E402
 
+import tables                  # noqa: E402  (benchmarks/tables.py, beside this script)
+
 
 def short_bar(layers, ratio, dt, beta_r, lattice_E=None, newmark_beta=0.0, motion="predictor"):
     from solver.scene.file import anchor_paths
@@ -132,11 +134,7 @@ def main(argv=None):
                      f"{om_fe:.4g} | {om_de:.4g} | {r_lo - 1:+.1e} | "
                      f"{'unstable at every step' if lim is None else f'{lim:.3f}'} |")
         print(lines[-1], flush=True)
-    text = "\n".join(lines)
-    out = Path("results") / "bench_transition_stability.md"
-    out.parent.mkdir(exist_ok=True)
-    out.write_text(text + "\n")
-    print(text)
+    tables.write("bench_transition_stability", lines)
 
 
 if __name__ == "__main__":

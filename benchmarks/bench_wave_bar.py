@@ -23,6 +23,8 @@ from solver import scene as scene_mod
 from solver.errors import RunFailed
 from solver.petscutil import init
 
+import tables                  # noqa: E402  (benchmarks/tables.py, beside this script)
+
 E, RHO, THICK, Q, T = 70e9, 2700.0, 3.2e-4, 1.0e4, 1.5e-5
 C = np.sqrt(E / RHO)
 V0 = (Q / THICK) / (RHO * C)
@@ -86,11 +88,7 @@ def main(argv=None):
                      f"{' / '.join(f'{m[p][0]:+.2f}' for p in PROBES)} | "
                      f"{' / '.join(f'{m[p][1]:+.2f}' for p in PROBES)} | {m['reflected']:.2e} |")
         print(lines[-1], flush=True)
-    text = "\n".join(lines)
-    out = Path("results") / "bench_wave_bar.md"
-    out.parent.mkdir(exist_ok=True)
-    out.write_text(text + "\n")
-    print(text)
+    tables.write("bench_wave_bar", lines)
 
 
 if __name__ == "__main__":

@@ -44,6 +44,20 @@ def run_cli(args, n: int | None = None, cwd=None, env=None, timeout=600):
                           timeout=timeout)
 
 
+def refused(scene, sets, tmp_path, n: int | None = None) -> str:
+    """Run SCENE with ``--set`` items ``sets`` (and an output file in tmp_path):
+    it must stop with exit 2 before writing anything; returns its one line."""
+    out = tmp_path / "refused.h5"
+    args = [scene, "--set", f"output.file={out}"]
+    for item in sets:
+        args += ["--set", item]
+    proc = run_cli(args, n=n)
+    assert proc.returncode == 2, proc.stderr
+    line, = proc.stderr.strip().splitlines()
+    assert not out.exists()
+    return line
+
+
 def run_scene(raw: dict, tmp_path: Path, comm=None):
     """Validate and run raw scene data in this process; returns the RunResult."""
     from mpi4py import MPI
