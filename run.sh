@@ -6,7 +6,7 @@
 #   ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [PETSc options]
 #   ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 2]
 #   ./run.sh plot RESULT.h5           plot probes vs reference, error, energies
-#   ./run.sh bench                   run the benchmark scripts
+#   ./run.sh bench [--all]           run the benchmark scripts (--all: the slow ones too)
 #   ./run.sh keys [--markdown]       every scene key with type, default and meaning
 #   ./run.sh schemes                 integrators and coupling schemes, stability limits
 #   ./run.sh --help                  this list

@@ -31,6 +31,8 @@ from solver.petscutil import init                        # noqa: E402
 
 import tables                  # noqa: E402  (benchmarks/tables.py, beside this script)
 
+SLOW = True                    # about 40 min: ./run.sh bench --all
+
 
 def short_bar(layers, ratio, dt, beta_r, lattice_E=None, newmark_beta=0.0, motion="predictor"):
     from solver.scene.file import anchor_paths

@@ -17,7 +17,7 @@ USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--resta
        ./run.sh test                          the test suite
        ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 1,2] [--treatments ...] [--dts ...] [--schemes ...]
        ./run.sh plot RESULT.h5 [MORE.h5 ...] [--probe NAME] [-o FILE.png]
-       ./run.sh bench                         the benchmarks (benchmarks/bench_*.py)
+       ./run.sh bench [--all]                 the benchmarks (benchmarks/bench_*.py; --all: the slow ones too)
        ./run.sh keys [--markdown]             every scene key: type, default, meaning
        ./run.sh schemes                       integrators and coupling schemes, stability limits
 (python -m solver ... is the same on one process.)
