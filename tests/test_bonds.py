@@ -231,3 +231,23 @@ def test_contact_input_is_checked(tmp_path):
     line, = proc.stderr.strip().splitlines()
     assert "contact needs it on one rank for now" in line
     assert not out.exists()
+
+
+def test_particle_fields_show_the_damage(tmp_path):
+    """With breakable bonds the particle XDMF carries each particle's lost-bond
+    fraction: 0 away from the crack, > 0 on both of its faces, never above 1."""
+    import meshio
+    raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
+                    damping__beta=0.0)
+    raw["loads"][0]["direction"] = [-1.0, 0.0]
+    raw["time"]["end"] = 3.4e-5
+    raw["output"] = {"file": str(tmp_path / "d.h5"), "fields": {"every": 800}, "progress": 0}
+    proc = run_cli([write_scene(tmp_path / "d.yaml", raw)])
+    assert proc.returncode == 0, proc.stderr
+    with meshio.xdmf.TimeSeriesReader(str(tmp_path / "d_particles.xdmf")) as r:
+        points, _ = r.read_points_cells()
+        _, data, _ = r.read_data(r.num_steps - 1)
+    damage = data["damage"]
+    assert damage.min() == 0 and 0 < damage.max() <= 1
+    cracked = points[damage > 0][:, 0]
+    assert cracked.min() >= 0.1588 and cracked.max() <= 0.1594    # the first core columns

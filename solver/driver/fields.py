@@ -7,7 +7,8 @@ tensor's upper triangle row by row: (xx, xy, xz, yy, yz, zz), which ParaView
 and VTK read; 2D bodies give the 3D tensor (zz = 0 in plane stress,
 nu (xx + yy) in plane strain)
 to ``<output stem>_fields.xdmf``, and the DEM particles (nodes owned by dem partitions) as
-a vertex mesh with the same point data to ``<output stem>_particles.xdmf``.  Both
+a vertex mesh with the same point data (and ``damage``, the fraction of its
+bonds a particle has lost, when bonds can break) to ``<output stem>_particles.xdmf``.  Both
 share one time axis, so one ParaView session opens them together.  Values are
 gathered to rank 0, which writes.
 """
@@ -92,14 +93,20 @@ class FieldWriter:
     def write(self, t: float):
         local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dim),
                   p.V[:p.n_own].reshape(-1, self.dim)) for p in self.parts]
-        chunks = self.comm.gather(local, root=0) if self.comm.size > 1 else [local]
+        damage = [(p.layout.owned, p.force.damage()) for p in self.parts
+                  if getattr(p.force, "break_strain", None) is not None]
+        chunks = self.comm.gather((local, damage), root=0) if self.comm.size > 1 else \
+            [(local, damage)]
         if self.comm.rank != 0:
             return
         u, v = np.zeros((self.n, 3)), np.zeros((self.n, 3))
-        for chunk in chunks:
+        broken = np.zeros(self.n) if any(d for _, d in chunks) else None
+        for chunk, dmg in chunks:
             for nodes, uu, vv in chunk:
                 u[nodes, :self.dim] = uu
                 v[nodes, :self.dim] = vv
+            for nodes, frac in dmg:
+                broken[nodes] = frac
         flat = u[:, :self.dim].ravel()
         stress = [tensor6(np.einsum("esj,ej->es", op, flat[(conn[:, :, None] * self.dim +
                                                              np.arange(self.dim)).reshape(len(conn), -1)]),
@@ -108,8 +115,10 @@ class FieldWriter:
         self.writers[0].write_data(t, point_data={"displacement": u, "velocity": v},
                                    cell_data={"stress": stress})
         if len(self.writers) > 1:
-            self.writers[1].write_data(t, point_data={"displacement": u[self.particles],
-                                                      "velocity": v[self.particles]})
+            data = {"displacement": u[self.particles], "velocity": v[self.particles]}
+            if broken is not None:           # breakable bonds: the fraction each particle lost
+                data["damage"] = broken[self.particles]
+            self.writers[1].write_data(t, point_data=data)
 
     def written(self) -> list[str]:
         """The files written: each XDMF and the HDF5 file meshio keeps beside it."""

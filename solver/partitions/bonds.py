@@ -148,6 +148,16 @@ class BondForce:
                                   (r[-3] * self.L0[at[(int(r[-2]), int(r[-1]))]]) ** 2
                                   for r in mine))
 
+    def damage(self) -> np.ndarray:
+        """Fraction of its lattice bonds each owned particle has lost [n_owned]."""
+        n = self.part.layout.n_owned
+        ends = np.concatenate([self.i, self.j])
+        lost = np.concatenate([~self.alive, ~self.alive]).astype(float)
+        mine = ends < n
+        total = np.bincount(ends[mine], minlength=n)
+        gone = np.bincount(ends[mine], lost[mine], minlength=n)
+        return np.where(total > 0, gone / np.maximum(total, 1), 0.0)
+
     def tangent(self):
         """dF/du at rest: the small-strain operator (stability bounds, damping)."""
         return self._tangent
