@@ -251,3 +251,25 @@ def test_particle_fields_show_the_damage(tmp_path):
     assert damage.min() == 0 and 0 < damage.max() <= 1
     cracked = points[damage > 0][:, 0]
     assert cracked.min() >= 0.1588 and cracked.max() <= 0.1594    # the first core columns
+
+
+def test_particle_stress_follows_the_current_bonds(tmp_path):
+    """Probe stress of a particle with nonlinear bonds: on an unbroken lattice
+    it is the small-strain bond stress to second order (4.5e-4 relative at a
+    strain of 4.5e-4); on a crack face it cannot exceed what the bonds hold
+    before they break (9/8 E x break strain) and falls once they have."""
+    lin = run_scene(raw_scene("wave_bar_transition"), tmp_path)
+    non = run_scene(nonlinear(), tmp_path)
+    s_lin, s_non = lin.probes["B"]["stress"], non.probes["B"]["stress"]
+    assert np.abs(s_non - s_lin).max() < 1e-3 * np.abs(s_lin).max()
+    raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
+                    damping__beta=0.0)
+    raw["loads"][0]["direction"] = [-1.0, 0.0]
+    raw["time"]["end"] = 4.5e-5
+    raw["reference"] = "none"
+    raw["probes"] = [{"name": "F", "at": [0.159, 0.0012]}]          # on the crack's face
+    res = run_scene(raw, tmp_path)
+    t, s = res.probes["F"]["t"], res.probes["F"]["stress"]
+    held = 9 / 8 * 70e9 * 3e-4
+    assert 0.8 * held < s.max() < 1.1 * held
+    assert np.abs(s[t > 3.3e-5]).max() < 0.3 * s.max()

@@ -13,7 +13,9 @@ whatever the rank layout.
   sigma = 1/(2 V) sum_j f_ij (x) r_ij over its bonds, with V = m / rho its
   volume (thickness included in plane stress), f_ij = k (n . (u_j - u_i)) n the
   bond force on i and r_ij = x_j - x_i; a bond carried to band nodes (seed 003
-  transition) counts with its band end interpolated from the cell.  In a
+  transition) counts with its band end interpolated from the cell.  With
+  nonlinear lattice bonds the lattice part is evaluated in the current
+  configuration at every record (broken bonds drop out, contact forces count).  In a
   uniformly strained lattice this is the continuum stress of the calibrated
   material (tests/test_transition.py).
 """
@@ -44,12 +46,14 @@ def fe_row(mdl, node: int, c: int):
     return np.concatenate(nodes), np.concatenate(coefs) / n_cells
 
 
-def bond_row(mdl, node: int, c: int, rho: float):
-    """(nodes, coefficients) of the bond stress sigma_cc at particle ``node``."""
+def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True):
+    """(nodes, coefficients) of the bond stress sigma_cc at particle ``node``
+    (``lattice`` False: only the bonds carried to a band, the linear part of a
+    nonlinear partition)."""
     dim = mdl.dof
     V = mdl.mass[node] / rho
     nodes, coefs = [], []
-    if mdl.bonds:
+    if mdl.bonds and lattice:
         bi, bj, k = mdl.bonds
         for mine, other in ((bi, bj), (bj, bi)):
             sel = np.flatnonzero(mine == node)
@@ -78,18 +82,22 @@ class StressProbes:
     Collective: every piece of a partition builds and evaluates its operator."""
 
     def __init__(self, scene, mdl, parts):
-        self.ops = []
+        self.ops, self.current = [], []
         rho = scene.model.material.rho
         dim = mdl.dof
         for part in parts:
             blocks, rows = [], []
+            current = []
+            nonlinear = not getattr(part.force, "linear", True)
             for probe in scene.probes:
                 loc = part.layout.local(np.array([probe.node]))[0]
                 if not 0 <= loc < part.layout.n_owned:
                     continue
-                nodes, coef = (bond_row(mdl, probe.node, probe.component, rho)
+                nodes, coef = (bond_row(mdl, probe.node, probe.component, rho, not nonlinear)
                                if part.method == "dem" else
                                fe_row(mdl, probe.node, probe.component))
+                if nonlinear:
+                    current.append((probe.name, loc, probe.component, mdl.mass[probe.node] / rho))
                 conn = np.unique(np.concatenate([[probe.node], nodes]))
                 where = np.searchsorted(conn, nodes)
                 Ke = np.zeros((1, conn.size * dim, conn.size * dim))
@@ -100,14 +108,28 @@ class StressProbes:
             S = part.operator(blocks)
             out = np.zeros(part.held_dofs.size)
             self.ops.append((S, part.u, vec_on(out, part.comm), out, rows))
+            if nonlinear:               # every piece: the ghost refresh is collective
+                self.current.append((part.force, part.u, current))
 
     def values(self) -> dict:
-        """{probe name: sigma} of this rank's probes (collective)."""
+        """{probe name: sigma} of this rank's probes (collective).  The lattice
+        bonds of a nonlinear partition count in their current configuration
+        (broken ones not at all): 1/(2V) sum k (L - L0) d_c^2 / L."""
         got = {}
         for S, u, out_vec, out, rows in self.ops:
             S.mult(u, out_vec)
             for name, i in rows:
                 got[name] = float(out[i])
+        for force, u, probes in self.current:
+            x, d, L = force._bonds(u)               # collective (ghost particles)
+            if not probes:
+                continue
+            pull = np.where(force.alive, force.k * (L - force.L0) / np.where(L > 0, L, 1.0), 0.0)
+            for name, loc, c, V in probes:
+                at = (force.i == loc) | (force.j == loc)
+                got[name] += float(np.sum(pull[at] * d[at, c] ** 2)) / (2 * V)
+                if force.contact is not None:
+                    got[name] += force.contact.stress(x, force.alive, loc, c) / (2 * V)
         return got
 
     def destroy(self):

@@ -48,6 +48,23 @@ class Contact:
         self._x_built = pts.copy()
         self.builds += 1
 
+    def stress(self, x, alive, node, c) -> float:
+        """sum over the contacts of ``node`` of f_c r_c (its virial, sign of tension)."""
+        if not len(self._pairs):
+            return 0.0
+        i, j = self._pairs[:, 0], self._pairs[:, 1]
+        at = (i == node) | (j == node)
+        if not at.any():
+            return 0.0
+        i, j = i[at], j[at]
+        key = np.minimum(i, j) * self._n + np.maximum(i, j)
+        d = x[j] - x[i]
+        dist = np.linalg.norm(d, axis=1)
+        overlap = 2 * self.radius - dist
+        touch = (overlap > 0) & ~np.isin(key, self._bond_key[alive]) & (dist > 0)
+        # a pushing contact: f = -k_n overlap n on the particle, r = dist n, f.r < 0
+        return float(-np.sum((self.kn * overlap[touch] / dist[touch]) * d[touch, c] ** 2))
+
     def forces(self, x, alive, out, rows):
         """Add the contact forces at positions ``x`` to ``out`` (rows < ``rows``);
         ``alive``: the bonds' live flags (a live bond excludes its pair)."""
