@@ -96,8 +96,10 @@ class StressProbes:
                 nodes, coef = (bond_row(mdl, probe.node, probe.component, rho, not nonlinear)
                                if part.method == "dem" else
                                fe_row(mdl, probe.node, probe.component))
-                if nonlinear:
-                    current.append((probe.name, loc, probe.component, mdl.mass[probe.node] / rho))
+                if nonlinear:            # the probe's bonds, found once
+                    bonds = np.flatnonzero((part.force.i == loc) | (part.force.j == loc))
+                    current.append((probe.name, loc, bonds, probe.component,
+                                    mdl.mass[probe.node] / rho))
                 conn = np.unique(np.concatenate([[probe.node], nodes]))
                 where = np.searchsorted(conn, nodes)
                 Ke = np.zeros((1, conn.size * dim, conn.size * dim))
@@ -124,10 +126,10 @@ class StressProbes:
             x, d, L = force._bonds(u)               # collective (ghost particles)
             if not probes:
                 continue
-            pull = np.where(force.alive, force.k * (L - force.L0) / np.where(L > 0, L, 1.0), 0.0)
-            for name, loc, c, V in probes:
-                at = (force.i == loc) | (force.j == loc)
-                got[name] += float(np.sum(pull[at] * d[at, c] ** 2)) / (2 * V)
+            for name, loc, at, c, V in probes:
+                pull = np.where(force.alive[at], force.k[at] * (L[at] - force.L0[at]) /
+                                np.where(L[at] > 0, L[at], 1.0), 0.0)
+                got[name] += float(np.sum(pull * d[at, c] ** 2)) / (2 * V)
                 if force.contact is not None:
                     got[name] += force.contact.stress(x, force.alive, loc, c) / (2 * V)
         return got

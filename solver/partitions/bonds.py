@@ -40,18 +40,17 @@ class BondForce:
         dim = part.dof
         self.dim = dim
         conn, stiff = lattice_block
-        held = part.layout.held
-        local = {int(n): i for i, n in enumerate(held.tolist())}
+        lay = part.layout
+        held = lay.held
         # bonds with at least one owned end: this piece's rows
-        owned = np.zeros(int(max(conn.max(initial=0), held.max(initial=0))) + 1, bool)
-        owned[part.layout.owned] = True
-        mine = owned[conn[:, 0]] | owned[conn[:, 1]]
-        conn, k = conn[mine], stiff.k[mine]
-        ghosts = np.setdiff1d(np.unique(conn), held)
-        for g in ghosts.tolist():
-            local[int(g)] = len(local)
-        self.i = np.array([local[int(a)] for a in conn[:, 0]], dtype=np.int64)
-        self.j = np.array([local[int(b)] for b in conn[:, 1]], dtype=np.int64)
+        local = lay.local(conn.ravel()).reshape(conn.shape)
+        mine = ((local >= 0) & (local < lay.n_owned)).any(axis=1)
+        conn, k, local = conn[mine], stiff.k[mine], local[mine]
+        ghosts = np.unique(conn[local < 0])                  # another piece's particles
+        at = np.searchsorted(ghosts, conn)
+        local = np.where(local < 0, held.size + at, local)  # ghosts after the held nodes
+        self.i, self.j = local[:, 0], local[:, 1]
+        self.n_ghosts = ghosts.size
         self.k = k
         self.nodes = conn
         points = stiff.points

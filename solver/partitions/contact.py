@@ -48,22 +48,25 @@ class Contact:
         self._x_built = pts.copy()
         self.builds += 1
 
-    def stress(self, x, alive, node, c) -> float:
-        """sum over the contacts of ``node`` of f_c r_c (its virial, sign of tension)."""
-        if not len(self._pairs):
-            return 0.0
+    def _touching(self, x, alive, node=None):
+        """(i, j, d = x_j - x_i, distance, overlap) of the candidate pairs (of
+        ``node`` only, if given) that overlap and share no live bond."""
         i, j = self._pairs[:, 0], self._pairs[:, 1]
-        at = (i == node) | (j == node)
-        if not at.any():
-            return 0.0
-        i, j = i[at], j[at]
+        if node is not None:
+            at = (i == node) | (j == node)
+            i, j = i[at], j[at]
         key = np.minimum(i, j) * self._n + np.maximum(i, j)
         d = x[j] - x[i]
         dist = np.linalg.norm(d, axis=1)
         overlap = 2 * self.radius - dist
         touch = (overlap > 0) & ~np.isin(key, self._bond_key[alive]) & (dist > 0)
-        # a pushing contact: f = -k_n overlap n on the particle, r = dist n, f.r < 0
-        return float(-np.sum((self.kn * overlap[touch] / dist[touch]) * d[touch, c] ** 2))
+        return i[touch], j[touch], d[touch], dist[touch], overlap[touch]
+
+    def stress(self, x, alive, node, c) -> float:
+        """sum over the contacts of ``node`` of f_c r_c (its virial, sign of tension):
+        a pushing contact has f = -k_n overlap n on the particle and r = dist n."""
+        _, _, d, dist, overlap = self._touching(x, alive, node)
+        return float(-np.sum((self.kn * overlap / dist) * d[:, c] ** 2))
 
     def forces(self, x, alive, out, rows):
         """Add the contact forces at positions ``x`` to ``out`` (rows < ``rows``);
@@ -72,24 +75,13 @@ class Contact:
         if self._x_built is None or \
                 np.max(np.linalg.norm(pts - self._x_built, axis=1), initial=0.0) > 0.5 * self.skin:
             self._build(x)
-        if not len(self._pairs):
+        i, j, d, dist, overlap = self._touching(x, alive)
+        if not i.size:
             self.energy = 0.0
             return
-        i, j = self._pairs[:, 0], self._pairs[:, 1]
-        key = np.minimum(i, j) * self._n + np.maximum(i, j)
-        bonded = np.isin(key, self._bond_key[alive])
-        d = x[j] - x[i]
-        dist = np.linalg.norm(d, axis=1)
-        overlap = 2 * self.radius - dist
-        touch = (overlap > 0) & ~bonded & (dist > 0)
-        if not touch.any():
-            self.energy = 0.0
-            return
-        i, j, d, dist, overlap = i[touch], j[touch], d[touch], dist[touch], overlap[touch]
         f = (self.kn * overlap / dist)[:, None] * d             # on j, away from i
         self.energy = float(0.5 * self.kn * np.sum(overlap ** 2))
-        self.touching = int(touch.sum())
+        keep_i, keep_j = i < rows, j < rows
         for c in range(out.shape[1]):
-            keep_i, keep_j = i < rows, j < rows
             out[:, c] -= np.bincount(i[keep_i], f[keep_i, c], minlength=rows)
             out[:, c] += np.bincount(j[keep_j], f[keep_j, c], minlength=rows)

@@ -69,7 +69,7 @@ class DemPartition(Partition):
         if contact is not None:
             strain += (f"; contact of unbonded particles (radius {contact[0]:g} m, k_n "
                        f"{contact[1]:g} N/m, k-d tree with skin {contact[2]:g} m)")
-        self.built.append(f"{len(force.k)} lattice bonds from the current configuration{strain}"
-                          + (f", {int(force._ghost is not None and force._g_arr.size // self.dof)}"
-                             " ghost particles" if force._ghost is not None else ""))
+        ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
+        self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
+                          f"{strain}{ghosts}")
         return force
