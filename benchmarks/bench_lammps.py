@@ -2,18 +2,28 @@
 
     python benchmarks/bench_lammps.py [--n 60] [--steps 1000]
 
-The issue's case: a 60^3 simple-cubic lattice, 216,000 atoms with 3 harmonic
-bonds each, NVE.  LAMMPS (Debian's ``lammps`` package, ``lmp``) runs it with
-periodic boundaries; our DEM partition steps velocity Verlet through the bond
-operator (linearised central bonds, AIJ with block size 3) on the same lattice
-(open boundaries: 3 bonds per atom away from the faces).  Reported: atom-steps/s
-and ns per bond for both, and their ratio.  LAMMPS is not installed by run.sh
+The case: a 60^3 simple-cubic lattice, 216,000 atoms with 3 harmonic bonds
+each, NVE.  LAMMPS (Debian's ``lammps`` package, ``lmp``) runs it with periodic
+boundaries; we step velocity Verlet with PETSc Vec operations, as a dem
+partition does, on the same lattice (open boundaries: 3 bonds per atom away
+from the faces), with three bond forces:
+
+- the bond operator (linearised central bonds, AIJ with block size 3): the
+  small-strain lattice, ``geometry: linear``;
+- bonds from the current configuration (``geometry: nonlinear``, breakable),
+  the same physics as LAMMPS's harmonic bonds: the compiled loop of
+  solver/partitions/bond_kernel.py, which the solver uses;
+- the same bonds in numpy (gather, multiply, bincount), the reference the
+  loop replaced.
+
+Reported: atom-steps/s and ns per bond for each, and their ratios to LAMMPS.  LAMMPS is not installed by run.sh
 (its package switches the system mpiexec to OpenMPI); without ``lmp`` on PATH
 only our figure is printed.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import shutil
 import subprocess
@@ -69,6 +79,50 @@ def ours(n, steps):
     return n ** 3 / t, 1e9 * t / bi.size, bi.size
 
 
+def nonlinear(n, steps, compiled=True):
+    """Velocity Verlet with bonds from the current configuration (never breaking)."""
+    from solver.partitions.bond_kernel import bond_forces
+    P = init([])
+    pts, bi, bj, k, m = simple_cubic(n, 1.0, 100.0, 1.0)
+    N = n ** 3
+    arrs = [np.zeros(3 * N) for _ in range(4)]
+    u, vel, a, f = (vec_on(x, P.COMM_SELF) for x in arrs)
+    U, F = arrs[0].reshape(N, 3), arrs[3].reshape(N, 3)
+    minv = vec_on(np.repeat(1.0 / m, 3), P.COMM_SELF)
+    vel.setRandom()
+    vel.scale(0.01)
+    L0 = np.linalg.norm(pts[bj] - pts[bi], axis=1)
+    alive, limit = np.ones(bi.size, bool), np.full(bi.size, np.inf)
+    snapped = np.zeros(bi.size, dtype=np.int64)
+    order = np.lexsort((bj, bi))              # as BondForce sorts them
+    bi, bj, k, L0 = bi[order].astype(np.int64), bj[order].astype(np.int64), k[order], L0[order]
+
+    x = np.zeros_like(pts)
+
+    def force():
+        np.add(pts, U, out=x)
+        if compiled:
+            bond_forces(x, bi, bj, k, L0, alive, limit, F, N, snapped, False)
+            return
+        d = x[bj] - x[bi]
+        L = np.linalg.norm(d, axis=1)
+        g = (k * (L - L0) / L)[:, None] * d
+        for c in range(3):
+            F[:, c] = np.bincount(bi, g[:, c], minlength=N) - np.bincount(bj, g[:, c], minlength=N)
+
+    force()                                   # compiles the loop (cached on disk)
+    h = 0.001
+    t0 = time.perf_counter()
+    for _ in range(steps):                    # as solver/partitions/integrators.py steps
+        u.maxpy((h, 0.5 * h * h), (vel, a))
+        vel.axpy(0.5 * h, a)
+        force()
+        a.pointwiseMult(f, minv)
+        vel.axpy(0.5 * h, a)
+    t = (time.perf_counter() - t0) / steps
+    return N / t, 1e9 * t / bi.size, bi.size
+
+
 def lammps(n, steps):
     exe = shutil.which("lmp")
     if not exe:
@@ -76,7 +130,7 @@ def lammps(n, steps):
     tmp = Path(tempfile.mkdtemp())
     (tmp / "in.bonds").write_text(LAMMPS_INPUT.format(n=n, steps=steps))
     out = subprocess.run([exe, "-in", "in.bonds", "-log", "none"], cwd=tmp, capture_output=True,
-                         text=True, env={"OMP_NUM_THREADS": "1", "PATH": "/usr/bin:/bin"})
+                         text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
     m = re.search(r"Loop time of ([\d.eE+-]+) on 1 procs for (\d+) steps with (\d+) atoms", out.stdout)
     if not m:
         raise SystemExit(f"LAMMPS did not report a loop time:\n{out.stdout[-1500:]}{out.stderr[-1500:]}")
@@ -91,15 +145,26 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=60)
     ap.add_argument("--steps", type=int, default=1000)
     args = ap.parse_args(argv)
-    rate, per_bond, nb = ours(args.n, max(args.steps // 5, 50))
+    steps = max(args.steps // 5, 50)
+    rows = [("ours, bond operator (linear, AIJ bs 3)", ours(args.n, steps)),
+            ("ours, current-configuration bonds, compiled", nonlinear(args.n, steps)),
+            ("ours, current-configuration bonds, numpy", nonlinear(args.n, max(steps // 5, 10),
+                                                                   compiled=False))]
     print(f"simple cubic {args.n}^3 = {args.n ** 3} atoms")
-    print(f"  ours (bond operator, AIJ bs 3): {rate / 1e6:7.1f} M atom-steps/s, {per_bond:.2f} ns per bond ({nb} bonds)")
+    for label, (rate, per_bond, nb) in rows:
+        print(f"  {label:45s} {rate / 1e6:7.1f} M atom-steps/s, {per_bond:6.2f} ns per bond "
+              f"({nb} bonds)")
+    compiled, numpy_rate = rows[1][1][0], rows[2][1][0]
+    print(f"  compiled / numpy throughput = {compiled / numpy_rate:.2f}")
     lmp = lammps(args.n, args.steps)
     if lmp is None:
-        print("  LAMMPS: 'lmp' not found (apt-get install lammps to compare; it switches mpiexec to OpenMPI)")
+        print("  LAMMPS: 'lmp' not found (apt-get install lammps to compare; it switches mpiexec "
+              "to OpenMPI)")
         return
-    print(f"  LAMMPS (harmonic bonds, NVE):    {lmp[0] / 1e6:7.1f} M atom-steps/s, {lmp[1]:.2f} ns per bond ({lmp[2]} bonds)")
-    print(f"  ours / LAMMPS throughput = {rate / lmp[0]:.2f}")
+    print(f"  {'LAMMPS (harmonic bonds, NVE)':45s} {lmp[0] / 1e6:7.1f} M atom-steps/s, "
+          f"{lmp[1]:6.2f} ns per bond ({lmp[2]} bonds)")
+    for label, (rate, _, _) in rows[:2]:
+        print(f"  {label} / LAMMPS throughput = {rate / lmp[0]:.2f}")
 
 
 if __name__ == "__main__":

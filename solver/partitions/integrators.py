@@ -127,13 +127,13 @@ class VelocityVerlet:
         """``step`` for partition ``p`` as a closure over bound methods."""
         h = p.dt
         u, v, a = p.u, p.v, p.a
-        u_axpy, v_axpy = u.axpy, v.axpy
+        u_maxpy, v_axpy = u.maxpy, v.axpy
         hh, half = 0.5 * h * h, 0.5 * h
         residual, accelerate = p.residual, p.accelerate
+        coefs, vecs = (h, hh), (v, a)
 
         def step(t1):
-            u_axpy(h, v)
-            u_axpy(hh, a)
+            u_maxpy(coefs, vecs)        # u += h v + h^2/2 a: one pass (VecMAXPY)
             v_axpy(half, a)
             residual(t1, u, v)          # v is the half-step velocity (used by damping only)
             accelerate()
