@@ -8,7 +8,10 @@ and VTK read; 2D bodies give the 3D tensor (zz = 0 in plane stress,
 nu (xx + yy) in plane strain)
 to ``<output stem>_fields.xdmf``, and the DEM particles (nodes owned by dem partitions) as
 a vertex mesh with the same point data (and ``damage``, the fraction of its
-bonds a particle has lost, when bonds can break) to ``<output stem>_particles.xdmf``.  Both
+bonds a particle has lost, when bonds can break) to ``<output stem>_particles.xdmf``;
+with ``heat`` both carry the temperature.  With breakable bonds a run that writes
+fields also writes ``<output stem>_cracks.xdmf``: every broken bond at its midpoint
+with the time it broke (:func:`write_cracks`).  Both
 share one time axis, so one ParaView session opens them together.  Values are
 gathered to rank 0, which writes.
 """
@@ -43,10 +46,11 @@ def tensor6(voigt: np.ndarray, kind: str, nu: float) -> np.ndarray:
 
 
 class FieldWriter:
-    def __init__(self, scene, mdl, parts, comm, tag: str = ""):
+    def __init__(self, scene, mdl, parts, comm, tag: str = "", heating=None):
         from solver.model.elements import _geometry, strain_matrix
         self.comm = comm
         self.parts = parts
+        self.heating = heating
         self.every = scene.output.fields.every
         self.dim = mdl.dof
         self.n = mdl.n_nodes
@@ -71,7 +75,7 @@ class FieldWriter:
         self.stress_ops = []
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu
-        D = material.elastic().D()
+        D = self.D = material.elastic().D()
         for fam, conn in blocks:                     # u_e -> cell-averaged stress
             _, dNdx, _ = _geometry(fam, mdl.points[conn])
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
@@ -109,16 +113,28 @@ class FieldWriter:
                 broken[nodes] = frac
         flat = u[:, :self.dim].ravel()
         stress = [tensor6(np.einsum("esj,ej->es", op, flat[(conn[:, :, None] * self.dim +
-                                                             np.arange(self.dim)).reshape(len(conn), -1)]),
-                          self.kind, self.nu)
+                                                             np.arange(self.dim)).reshape(len(conn), -1)])
+                          - self._thermal(conn), self.kind, self.nu)
                   for conn, op in self.stress_ops]
-        self.writers[0].write_data(t, point_data={"displacement": u, "velocity": v},
-                                   cell_data={"stress": stress})
+        point = {"displacement": u, "velocity": v}
+        if self.heating is not None:                 # every rank holds the same temperatures
+            point["temperature"] = self.heating.T_node
+        self.writers[0].write_data(t, point_data=point, cell_data={"stress": stress})
         if len(self.writers) > 1:
-            data = {"displacement": u[self.particles], "velocity": v[self.particles]}
+            data = {name: value[self.particles] for name, value in point.items()}
             if broken is not None:           # breakable bonds: the fraction each particle lost
                 data["damage"] = broken[self.particles]
             self.writers[1].write_data(t, point_data=data)
+
+    def _thermal(self, conn):
+        """D eps_th of cells ``conn`` at their mean temperature (0 without heat)."""
+        if self.heating is None:
+            return 0.0
+        spec = self.heating.spec
+        dT = self.heating.T_node[conn].mean(axis=1) - spec.initial
+        m = np.zeros(self.D.shape[0])
+        m[:self.dim] = 1.0
+        return spec.expansion * dT[:, None] * (self.D @ m)[None, :]
 
     def written(self) -> list[str]:
         """The files written: each XDMF and the HDF5 file meshio keeps beside it."""
@@ -134,6 +150,26 @@ class FieldWriter:
             for xdmf in self.files[:self.n_open]:
                 name_datasets(xdmf)
         self.writers = []
+
+
+def write_cracks(output_file: str, broken: np.ndarray, dim: int) -> list[str]:
+    """The broken bonds as a point cloud for ParaView, ``<output stem>_cracks.xdmf``:
+    one vertex per bond at its midpoint when it broke, with point data time,
+    strain, critical strain and temperature (NaN without heat)."""
+    import contextlib
+
+    import meshio
+    xdmf = Path(output_file).resolve().with_suffix("")
+    xdmf = Path(f"{xdmf}_cracks.xdmf")
+    pts = np.zeros((len(broken), 3))
+    pts[:, :dim] = broken[:, 1:1 + dim]
+    data = {name: broken[:, col] for name, col in
+            (("time", 0), ("strain", 1 + dim), ("critical_strain", 2 + dim),
+             ("temperature", 3 + dim))}
+    with contextlib.chdir(xdmf.parent):
+        meshio.write(xdmf.name, meshio.Mesh(pts, [("vertex", np.arange(len(pts))[:, None])],
+                                            point_data=data))
+    return [str(xdmf), str(xdmf.with_suffix(".h5"))]
 
 
 def name_datasets(xdmf: str):

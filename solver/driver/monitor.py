@@ -81,37 +81,43 @@ class Probes:
 
 
 class EnergyGuard:
-    def __init__(self, parts, comm, dt_system: float, every: int, bound: float):
+    def __init__(self, parts, comm, dt_system: float, every: int, bound: float,
+                 max_displacement: float | None = None):
         self.parts = parts
+        self.max_displacement = max_displacement
         self.comm = comm
         self.dt = dt_system
         self.every = every
         self.bound = bound
-        self.series = {"t": [], "kinetic": [], "strain": [], "external_work": []}
-        kin, strain, _ = self._sample(0)
+        self.series = {"t": [], "kinetic": [], "strain": [], "external_work": [],
+                       "dissipated": []}
+        kin, strain, _, _ = self._sample(0)
         self.initial = kin + strain
         self.max_work = 0.0
 
     def _sample(self, k):
-        local = np.zeros(3)
+        local = np.zeros(4)
         for part in self.parts:
             local += part.energies()
         if self.comm.size > 1:
             from mpi4py import MPI
             local = self.comm.allreduce(local, op=MPI.SUM)
-        for name, value in zip(("kinetic", "strain", "external_work"), local):
-            self.series[name].append(value)
+        for name, value in zip(("kinetic", "strain", "external_work", "dissipated"), local):
+            self.series.setdefault(name, []).append(value)
         self.series["t"].append(k * self.dt)
         return local
 
     def check(self, k: int) -> str | None:
         """Sample at system step ``k``; a failure message, or None."""
-        kin, strain, work = self._sample(k)
+        kin, strain, work, _ = self._sample(k)
         total = kin + strain
         self.max_work = max(self.max_work, abs(work))
         t = k * self.dt
         if not (math.isfinite(total) and math.isfinite(work)):
             return f"non-finite state at t = {t:.6g} s (system step {k})"
+        lost = self._lost() if self.max_displacement else None
+        if lost:
+            return f"{lost} at t = {t:.6g} s (system step {k})"
         scale = self.initial + self.max_work
         # no scale yet (at rest, no work done): a linear system cannot blow up from there
         if scale > 0 and total > self.bound * scale:
@@ -119,6 +125,25 @@ class EnergyGuard:
                     f"{self.bound:g} x (initial energy {self.initial:.4g} J + largest |external "
                     f"work| {self.max_work:.4g} J): the run is unstable")
         return None
+
+    def _lost(self) -> str | None:
+        """The farthest-moved owned node if beyond max_displacement (collective)."""
+        far = (0.0, -1, "", "")
+        for part in self.parts:
+            n = part.n_own
+            if not n or part.dof is None:
+                continue
+            dist = np.linalg.norm(part.U[:n].reshape(-1, part.dof), axis=1)
+            i = int(np.argmax(dist))
+            if dist[i] > far[0]:
+                far = (float(dist[i]), int(part.layout.owned[i]), part.name, part.method)
+        if self.comm.size > 1:
+            far = max(self.comm.allgather(far))
+        if far[0] <= self.max_displacement:
+            return None
+        what = "particle" if far[3] == "dem" else "node"
+        return (f"{what} {far[1]} of partition '{far[2]}' moved {far[0]:.3g} m, beyond "
+                f"guard.max_displacement {self.max_displacement:.3g} m (lost)")
 
     def memory(self) -> dict:
         """What a checkpoint keeps of the guard."""

@@ -13,7 +13,8 @@ Layout::
                        n_owned, n_external, layers, omega_max, critical_step
     /probes/<name>/t, displacement, velocity [, stress (continua), reference_displacement,
                     reference_stress (bar_wave)]
-    /broken_bonds   [n, 4 + dim]: t, midpoint, strain, node i, node j (breakable bonds)
+    /broken_bonds   [n, 6 + dim]: t, midpoint, strain, critical strain, temperature (NaN
+                    without heat), node i, node j (breakable bonds)
                        attrs: node, component, partition [, max_rel_error,
                        rms_rel_error]
     /energy/t, kinetic, strain, external_work, total
@@ -70,11 +71,16 @@ def write(path: str, result, checkpoint=None) -> None:
             g = f.create_group("energy")
             for k, v in result.energy.items():
                 g.create_dataset(k, data=np.asarray(v))
+            if getattr(result, "heat", None) is not None:
+                g = f.create_group("heat")
+                for k, v in result.heat.items():
+                    g.create_dataset(k, data=np.asarray(v))
             if getattr(result, "broken", None) is not None:
-                dim = result.broken.shape[1] - 4 if result.broken.size else 0
+                dim = result.broken.shape[1] - 6 if result.broken.size else 0
                 d = f.create_dataset("broken_bonds", data=result.broken)
-                d.attrs["columns"] = ("t, " + ", ".join("xyz"[:dim]) + ", strain, node i, node j"
-                                      if dim else "t, midpoint, strain, node i, node j")
+                where = ", ".join("xyz"[:dim]) if dim else "midpoint"
+                d.attrs["columns"] = (f"t, {where}, strain, critical strain, temperature, "
+                                      "node i, node j")
             if checkpoint is not None:
                 from solver.driver.state import write_group
                 write_group(f, *checkpoint)

@@ -25,7 +25,8 @@ class RunResult:
     partitions: dict = field(default_factory=dict)
     probes: dict = field(default_factory=dict)
     energy: dict = field(default_factory=dict)
-    broken: np.ndarray | None = None     # [n, 4 + dim] t, midpoint, strain, i, j (breakable bonds)
+    broken: np.ndarray | None = None     # [n, 6 + dim] t, midpoint, strain, limit, T, i, j
+    heat: dict | None = None             # heating series (t, heating_time, max_temperature)
 
     @property
     def status(self) -> str:
@@ -80,8 +81,16 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
             gap = np.linalg.norm(xyz - np.asarray(probe.at, dtype=float)[:xyz.size])
             say(f"[solver]   probe {probe.name}: at {list(probe.at)} -> node {probe.node} at "
                 f"{[float(f'{c:.6g}') for c in xyz]} ({gap:.3g} m away)")
+    heating = None
+    if getattr(mdl, "heat", None) is not None:
+        from solver.driver.heating import Heating
+        heating = Heating(mdl.heat, parts, scene)
+        say(f"[solver]   {heating.describe()}")
+        if probes.stress is not None:
+            probes.stress.heating = heating
     every = energy_every(scene)
-    guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound)
+    guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound,
+                        scene.guard.max_displacement or body_size(mdl, comm))
     start = 0
     if saved:
         start = saved["step"]
@@ -89,7 +98,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         probes.restore(saved["probes"], start)
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
     from solver.driver import provenance as prov
-    report = Report(scene, asm, probes, guard, comm, scene_text, t_start)
+    report = Report(scene, asm, probes, guard, comm, scene_text, t_start, heating)
     report.extra = {"versions": prov.versions(), "commit": prov.commit(), **model_counts(mdl, comm),
                     **(provenance or {})}
     report.setup_wall = time.perf_counter() - t_start
@@ -101,19 +110,26 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     fields = None
     if scene.output and scene.output.fields:
         from solver.driver.fields import FieldWriter
-        fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "")
+        fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "",
+                             heating=heating)
         fields.write(start * Dt)
     try:
         failure, done, loop_wall, interrupted = step_loop(
             scene, scheme, probes, guard, say if rank == 0 else None, comm, fields, start,
-            checkpoint)
+            checkpoint, heating)
     finally:
         if fields:
             fields.close()
+        if heating:
+            heating.destroy()
 
     result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
     if fields and rank == 0:
-        result.attrs["field_files"] = np.array(fields.written(), dtype=object)
+        written = fields.written()
+        if result.broken is not None and len(result.broken):
+            from solver.driver.fields import write_cracks
+            written += write_cracks(scene.output_file, result.broken, mdl.dof)
+        result.attrs["field_files"] = np.array(written, dtype=object)
     if scene.reference != "none" and not failure and result.probes:
         add_reference(result, mdl, scene, comm, say)
     # a completed run keeps its final state (restart with a later time.end to go on);
@@ -179,8 +195,9 @@ class Report:
     """The run's results so far (probes, energies, partition attributes),
     gathered on every rank: for checkpoints and the final output."""
 
-    def __init__(self, scene, asm, probes, guard, comm, scene_text, t_start):
+    def __init__(self, scene, asm, probes, guard, comm, scene_text, t_start, heating=None):
         self.scene, self.asm, self.probes, self.guard = scene, asm, probes, guard
+        self.heating = heating
         self.comm, self.scene_text, self.t_start = comm, scene_text, t_start
         self.extra = {}
 
@@ -230,7 +247,10 @@ class Report:
         for name, pa in part_attrs.items():
             attrs[f"steps_{name}"] = pa["steps"]
             attrs[f"wall_time_{name}"] = pa["wall_time"]
-        return RunResult(attrs, part_attrs, histories, self.guard.arrays(), broken_bonds(parts, comm))
+        if self.heating is not None:
+            attrs["heating_time_scale"] = self.heating.scale
+        return RunResult(attrs, part_attrs, histories, self.guard.arrays(), broken_bonds(parts, comm),
+                         self.heating.arrays() if self.heating is not None else None)
 
 
 def bond_attrs(part) -> dict:
@@ -257,6 +277,14 @@ def broken_bonds(parts, comm):
     return rows if rows.size else np.zeros((0, 0))
 
 
+def body_size(mdl, comm) -> float | None:
+    """The largest extent of a continuum's nodes (the lost-particle bound), or None."""
+    size = None
+    if comm.rank == 0 and hasattr(mdl, "points"):
+        size = float(np.ptp(mdl.points, axis=0).max())
+    return comm.bcast(size) if comm.size > 1 else size
+
+
 def model_counts(mdl, comm) -> dict:
     """FE cells and DEM particles of a continuum model (rank 0 holds it whole)."""
     counts = {}
@@ -269,7 +297,8 @@ def model_counts(mdl, comm) -> dict:
     return comm.bcast(counts) if comm.size > 1 else counts
 
 
-def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, checkpoint=None):
+def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, checkpoint=None,
+              heating=None):
     """Advance system steps from ``start`` to the end, the first guard failure,
     a partition's failure or an interrupt on any rank (all ranks stop at the
     same step, :mod:`solver.driver.stop`); ``checkpoint(k, wall)`` every
@@ -289,6 +318,8 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
     with Stopper(comm, start) as stop:
         for s in range(start, n_sys):
             try:
+                if heating is not None:
+                    heating.update(s)
                 scheme.step(s * Dt)
             except Exception as e:              # noqa: BLE001 -- stop together, keep the output
                 stop.fail(s + 1, describe(e))

@@ -5,7 +5,7 @@ Between system steps a run is determined by
 * the owned (u, v, a) of every partition, keyed by global node id (so a run
   can restart on another rank count: external copies are refreshed from their
   owners by one exchange, which is what the last system step ended with);
-* per partition: steps done, external work and the last load values of every
+* per partition: steps done, external work, damping dissipation and the last load values of every
   load function (the work increment's f_n); the broken bonds (time, midpoint,
   strain, particles) of breakable lattices;
 * the energy guard: its samples so far, initial energy, largest |work|;
@@ -57,7 +57,8 @@ def collect(k: int, parts, guard, comm) -> dict | None:
     local = []
     for p in parts:
         n = p.n_own
-        local.append((p.name, p.layout.owned, p.state[:, :n].copy(), p.work, p.steps,
+        local.append((p.name, p.layout.owned, p.state[:, :n].copy(),
+                      np.array([p.work, p.dissipated]), p.steps,
                       p.load_memory(), list(getattr(p.force, "broken", ()))))
     chunks = comm.gather(local, root=0) if comm.size > 1 else [local]
     if comm.rank != 0:
@@ -65,7 +66,7 @@ def collect(k: int, parts, guard, comm) -> dict | None:
     merged: dict = {}
     for chunk in chunks:
         for name, nodes, uva, work, steps, loads, broken in chunk:
-            m = merged.setdefault(name, {"nodes": [], "uva": [], "work": 0.0, "steps": steps,
+            m = merged.setdefault(name, {"nodes": [], "uva": [], "work": np.zeros(2), "steps": steps,
                                          "loads": {}, "broken": []})
             m["nodes"].append(nodes)
             m["uva"].append(uva.reshape(3, nodes.size, -1))
@@ -96,7 +97,10 @@ def restore(data: dict, parts, scheme, guard):
         p.steps = int(saved["steps"])
         # the work of a partition on several ranks is summed over its pieces:
         # keep it on the first one
-        p.work = float(saved["work"]) if p.layout.piece == 0 else 0.0
+        work = np.atleast_1d(np.asarray(saved["work"], dtype=float))   # external, dissipated
+        first = p.layout.piece == 0
+        p.work = float(work[0]) if first else 0.0
+        p.dissipated = float(work[1]) if first and work.size > 1 else 0.0
         p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
                                        saved["load_values"].tolist())))
         if hasattr(p.force, "restore_broken"):
@@ -173,7 +177,8 @@ def _read(path: str, scene) -> dict:
             for name, pg in g["partitions"].items():
                 parts[name] = {k2: pg[k2][()] if k2 in pg else np.zeros(0)
                                for k2 in ("nodes", "uva", "load_keys", "load_values", "broken")}
-                parts[name].update(work=float(pg.attrs["work"]), steps=int(pg.attrs["steps"]))
+                parts[name].update(work=np.atleast_1d(pg.attrs["work"]).astype(float),
+                                   steps=int(pg.attrs["steps"]))
             gg = g["guard"]
             guard = {"series": {k2: gg[k2][()].tolist() for k2 in gg},
                      "initial": float(gg.attrs["initial"]),

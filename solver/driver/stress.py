@@ -26,8 +26,10 @@ import numpy as np
 from solver.petscutil import init, vec_on
 
 
-def fe_row(mdl, node: int, c: int):
-    """(nodes, coefficients [len(nodes), dim]) of sigma_cc at mesh node ``node``."""
+def fe_row(mdl, node: int, c: int, thermal=None):
+    """(nodes, coefficients [len(nodes), dim]) of sigma_cc at mesh node ``node``;
+    ``thermal`` (a list) receives (nodes, weights) with sigma_th = -alpha sum w dT
+    (each cell's D eps_th at its mean temperature)."""
     from solver.model.elements import _geometry, strain_matrix
     D = mdl.material_D
     dim = mdl.dof
@@ -43,13 +45,20 @@ def fe_row(mdl, node: int, c: int):
         n_cells += hit.size
     if not n_cells:
         return np.array([node]), np.zeros((1, dim))
+    if thermal is not None:                   # D m, m the unit thermal strain (Voigt)
+        m = np.zeros(D.shape[0])
+        m[:dim] = 1.0
+        k = np.concatenate(nodes).size
+        thermal.append((np.concatenate(nodes), np.full(k, (D @ m)[c] / k)))
     return np.concatenate(nodes), np.concatenate(coefs) / n_cells
 
 
-def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True):
+def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True, thermal=None):
     """(nodes, coefficients) of the bond stress sigma_cc at particle ``node``
     (``lattice`` False: only the bonds carried to a band, the linear part of a
-    nonlinear partition)."""
+    nonlinear partition); ``thermal`` as in :func:`fe_row` (each bond's rest
+    length grown by alpha dT L0 at its ends' mean temperature)."""
+    thermal = thermal if thermal is not None else []
     dim = mdl.dof
     V = mdl.mass[node] / rho
     nodes, coefs = [], []
@@ -64,6 +73,7 @@ def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True):
                 w = k[b] * L * n[c] ** 2 / (2 * V)          # times n . (u_j - u_i)
                 nodes += [other[b], node]
                 coefs += [w * n, -w * n]
+                thermal.append((np.array([other[b], node]), np.full(2, 0.5 * w * L)))
     for _, conn, blocks in mdl.carried:
         sel = np.flatnonzero(conn[:, -1] == node)             # band-core bonds end on the core
         for b in sel:
@@ -72,6 +82,8 @@ def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True):
             w = blocks.k[b] * blocks.length[b] * n[c] ** 2 / (2 * V)
             nodes += list(conn[b])
             coefs += list(w * g)
+            L = blocks.length[b]
+            thermal.append((conn[b], np.full(len(conn[b]), w * L / len(conn[b]))))
     if not nodes:
         return np.array([node]), np.zeros((1, dim))
     return np.array(nodes), np.array(coefs)
@@ -83,6 +95,8 @@ class StressProbes:
 
     def __init__(self, scene, mdl, parts):
         self.ops, self.current = [], []
+        self.heating = None                  # set by the runner with heat: thermal strain
+        self.thermal = {}                    # probe -> (nodes, weights): sigma_th
         rho = scene.model.material.rho
         dim = mdl.dof
         for part in parts:
@@ -93,9 +107,13 @@ class StressProbes:
                 loc = part.layout.local(np.array([probe.node]))[0]
                 if not 0 <= loc < part.layout.n_owned:
                     continue
-                nodes, coef = (bond_row(mdl, probe.node, probe.component, rho, not nonlinear)
+                th = []
+                nodes, coef = (bond_row(mdl, probe.node, probe.component, rho, not nonlinear, th)
                                if part.method == "dem" else
-                               fe_row(mdl, probe.node, probe.component))
+                               fe_row(mdl, probe.node, probe.component, th))
+                if th:
+                    self.thermal[probe.name] = (np.concatenate([a for a, _ in th]),
+                                                np.concatenate([w for _, w in th]))
                 if nonlinear:            # the probe's bonds, found once
                     bonds = np.flatnonzero((part.force.i == loc) | (part.force.j == loc))
                     current.append((probe.name, loc, bonds, probe.component,
@@ -118,18 +136,23 @@ class StressProbes:
         bonds of a nonlinear partition count in their current configuration
         (broken ones not at all): 1/(2V) sum k (L - L0) d_c^2 / L."""
         got = {}
+        heat = self.heating
         for S, u, out_vec, out, rows in self.ops:
             S.mult(u, out_vec)
             for name, i in rows:
                 got[name] = float(out[i])
+                if heat is not None and name in self.thermal:     # minus D eps_th
+                    nodes, w = self.thermal[name]
+                    dT = heat.T_node[nodes] - heat.spec.initial
+                    got[name] -= heat.spec.expansion * float(np.dot(w, dT))
         for force, u, probes in self.current:
-            x, d, L = force._bonds(u)               # collective (ghost particles)
-            if not probes:
-                continue
+            x = force._positions(u)                 # collective (ghost particles)
             for name, loc, at, c, V in probes:
-                pull = np.where(force.alive[at], force.k[at] * (L[at] - force.L0[at]) /
-                                np.where(L[at] > 0, L[at], 1.0), 0.0)
-                got[name] += float(np.sum(pull * d[at, c] ** 2)) / (2 * V)
+                d = x[force.j[at]] - x[force.i[at]]
+                L = np.linalg.norm(d, axis=1)
+                pull = np.where(force.alive[at], force.k[at] * (L - force.L0[at]) /
+                                np.where(L > 0, L, 1.0), 0.0)
+                got[name] += float(np.sum(pull * d[:, c] ** 2)) / (2 * V)
                 if force.contact is not None:
                     got[name] += force.contact.stress(x, force.alive, loc, c) / (2 * V)
         return got

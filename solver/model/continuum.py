@@ -41,6 +41,7 @@ class ContinuumArrays:
     bond_geometry: str = "linear"  # lattice bonds: linear (small strain) or nonlinear
     break_strain: float = None     # lattice bonds break beyond this strain (nonlinear)
     contact: tuple = None          # (radius, kn, skin) of particle contact, or None
+    heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
 
     @property
     def n_nodes(self) -> int:
@@ -270,7 +271,8 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
         cells.append((fam, conn, Ke))
         mass += nodal(me, conn, len(mesh.points))
     if zone is not None:
-        return _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
+        arrays = _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
+        return _with_heat(arrays, scene, mesh, zone.points)
     fixed = _fixed(scene, mesh, len(mesh.points))
     loads = _loads(scene, mesh)
     n = len(mesh.points) * dim
@@ -278,11 +280,20 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
     if spec.lattice is not None:
         bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells, reach)
     lat = spec.lattice
-    return ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
-                           np.zeros(n), bonds, overlap, material_D=mat.D(),
-                           bond_geometry=lat.geometry if lat else "linear",
-                           break_strain=lat.break_strain if lat else None,
-                           contact=contact_of(lat) if lat else None)
+    arrays = ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
+                             np.zeros(n), bonds, overlap, material_D=mat.D(),
+                             bond_geometry=lat.geometry if lat else "linear",
+                             break_strain=lat.break_strain if lat else None,
+                             contact=contact_of(lat) if lat else None)
+    return _with_heat(arrays, scene, mesh)
+
+
+def _with_heat(arrays, scene, mesh, particles=None):
+    """The model with its conduction model (scene key ``heat``), if any."""
+    if scene.heat is None:
+        return arrays
+    from solver.model import heat
+    return dataclasses.replace(arrays, heat=heat.build(scene, mesh, particles, arrays.n_nodes))
 
 
 def contact_of(lat):

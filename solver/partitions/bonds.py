@@ -6,9 +6,16 @@ f = k (L - L0) d / L along its current direction d = x_j - x_i, L = |d|, so a
 rigid rotation of a bonded block, however large, exerts no force (the small-
 strain operator of :mod:`solver.partitions.force` does not have this
 property; for small strains the two agree to first order).  A bond whose
-strain (L - L0) / L0 exceeds ``break_strain`` breaks for good: it is recorded
-(time, midpoint, strain, particles) and the energy 1/2 k (L - L0)^2 it held
-counts as released, so kinetic + strain + released = external work.
+strain (L - L0) / L0 exceeds its critical strain breaks for good: it is
+recorded (time, midpoint, strain, critical strain, temperature, particles) and
+the energy 1/2 k (L - L0)^2 it held counts as released, so kinetic + strain +
+released = external work.
+
+With ``heat`` (:mod:`solver.model.heat`) a bond at temperature T (the mean of
+its ends') rests at L0 (1 + alpha (T - T0)), and with ``heat.melting`` its
+critical strain falls linearly from ``break_strain`` at T0 to zero at Tm.  A
+change of rest length at fixed positions changes the strain energy; that
+change counts as thermal work (the energy audit's external work includes it).
 
 Elements that are not lattice bonds (overlap cells, bonds carried to a
 transition band's nodes) stay linear: one MatMult with their operator.
@@ -30,7 +37,7 @@ class BondForce:
     linear = False
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
-                 contact=None):
+                 contact=None, heat=None):
         P = init()
         self.part = part
         self.operator = linear_op            # the other elements' -K (None if there are none)
@@ -46,6 +53,10 @@ class BondForce:
         local = lay.local(conn.ravel()).reshape(conn.shape)
         mine = ((local >= 0) & (local < lay.n_owned)).any(axis=1)
         conn, k, local = conn[mine], stiff.k[mine], local[mine]
+        # bonds sorted by their first local particle: the compiled loop sums a run once
+        ghost_last = np.where(local < 0, np.iinfo(np.int64).max, local)
+        order = np.lexsort((ghost_last[:, 1], ghost_last[:, 0]))
+        conn, k, local = conn[order], k[order], local[order]
         ghosts = np.unique(conn[local < 0])                  # another piece's particles
         at = np.searchsorted(ghosts, conn)
         local = np.where(local < 0, held.size + at, local)  # ghosts after the held nodes
@@ -56,7 +67,13 @@ class BondForce:
         points = stiff.points
         self.X = np.concatenate([points[held], points[ghosts]]) if ghosts.size else points[held]
         d0 = self.X[self.j] - self.X[self.i]
-        self.L0 = np.linalg.norm(d0, axis=1)
+        self.L0 = np.linalg.norm(d0, axis=1)        # rest lengths (at the bond's temperature)
+        self.L_cold = self.L0.copy()                 # ... at T0
+        # critical strain per bond (infinite: unbreakable)
+        self.limit = np.full(len(k), np.inf if break_strain is None else break_strain)
+        self.heat = heat.spec if heat is not None else None
+        self.T = None                                # per-bond temperature (with heat)
+        self._shares = None
         self.alive = np.ones(len(k), bool)
         self.n_held = held.size
         self.broken = []                     # (t, midpoint..., strain, node i, node j)
@@ -75,6 +92,8 @@ class BondForce:
         self._fi = self.i < self.n_held
         self._fj = self.j < self.n_held
         self._ri, self._rj = self.i[self._fi], self.j[self._fj]
+        self._x = np.zeros_like(self.X)            # positions of held + ghost particles
+        self._snapped = np.zeros(len(k), dtype=np.int64)
         self.contact = None
         if contact is not None:                  # (radius, kn, skin): the lattice's particles
             from solver.partitions.contact import Contact
@@ -96,13 +115,36 @@ class BondForce:
         return x, d, L
 
     def internal(self, u_vec, out_vec):
-        """out = f_int(u); bonds beyond break_strain break first (at ``now``)."""
+        """out = f_int(u); bonds beyond their critical strain break first (at
+        ``now``).  The compiled loop (:mod:`solver.partitions.bond_kernel`)."""
+        from solver.partitions.bond_kernel import bond_forces
+        x, X, n = self._x, self.X, self.n_held
+        np.add(X[:n], u_vec.getArray(readonly=True).reshape(n, self.dim), out=x[:n])
+        if self._ghost is not None:
+            self._ghost.scatter(u_vec, self._g_vec, *self._modes)
+            np.add(X[n:], self._g_arr.reshape(-1, self.dim), out=x[n:])
+        if self.operator is not None:
+            self.operator.mult(u_vec, out_vec)
+        out = out_vec.getArray().reshape(n, self.dim)
+        snapped = bond_forces(x, self.i, self.j, self.k, self.L0, self.alive, self.limit, out, n,
+                              self._snapped, self.operator is not None)
+        if snapped:
+            which = self._snapped[:snapped].copy()
+            self._break(which, x, np.linalg.norm(x[self.j[which]] - x[self.i[which]], axis=1)
+                        - self.L0[which])
+        if self.contact is not None:
+            self.contact.forces(x, self.alive, out, n)
+
+    def reference_internal(self, u_vec, out_vec):
+        """The same force in numpy (gather, multiply, bincount): the reference
+        the compiled loop is tested and benchmarked against."""
         x, d, L = self._bonds(u_vec)
         stretch = L - self.L0
         if self.break_strain is not None:
-            snap = self.alive & (stretch > self.break_strain * self.L0)
+            snap = self.alive & (stretch > self.limit * self.L0)
             if snap.any():
-                self._break(np.flatnonzero(snap), x, stretch)
+                which = np.flatnonzero(snap)
+                self._break(which, x, stretch[which])
         scale = np.where(self.alive, self.k * stretch / np.where(L > 0, L, 1.0), 0.0)
         f = scale[:, None] * d                                     # force on i (towards j)
         n, dim = self.n_held, self.dim
@@ -119,23 +161,51 @@ class BondForce:
             out_vec.getArray()[:] = out.ravel()
 
     def _break(self, which, x, stretch):
+        """Record bonds ``which`` as broken (their stretches L - L0: ``stretch``)."""
         self.alive[which] = False
         mid = 0.5 * (x[self.i[which]] + x[self.j[which]])
-        strain = stretch[which] / self.L0[which]
+        strain = stretch / self.L0[which]
+        limit = self.limit[which]
+        temp = self.T[which] if self.T is not None else np.full(which.size, np.nan)
         # the energy is counted once: by the piece that owns the bond's first node
         first = self.i[which] < self.part.layout.n_owned
-        self.released += float(0.5 * np.sum(self.k[which][first] * stretch[which][first] ** 2))
-        for w, m, s, own in zip(which.tolist(), mid, strain, first):
+        self.released += float(0.5 * np.sum(self.k[which][first] * stretch[first] ** 2))
+        for w, m, s, c, T, own in zip(which.tolist(), mid, strain, limit, temp, first):
             if own:
-                self.broken.append((self.now, *m.tolist(), float(s), int(self.nodes[w, 0]),
-                                    int(self.nodes[w, 1])))
+                self.broken.append((self.now, *m.tolist(), float(s), float(c), float(T),
+                                    int(self.nodes[w, 0]), int(self.nodes[w, 1])))
+
+    def set_temperature(self, T_node, count=True) -> float:
+        """Bond temperatures from the model nodes' ``T_node``: rest lengths and
+        critical strains follow; returns the thermal work (the change of this
+        piece's strain energy at the current positions), 0 unless ``count``."""
+        spec = self.heat
+        T = 0.5 * (T_node[self.nodes[:, 0]] + T_node[self.nodes[:, 1]])
+        L0 = self.L_cold * (1.0 + spec.expansion * (T - spec.initial))
+        work = 0.0
+        if count and spec.expansion:
+            from solver.partitions.bond_kernel import rest_length_work
+            if self._shares is None:
+                self._shares = self._share()
+            work = rest_length_work(self._positions(self.part.u), self.i, self.j, self.k,
+                                    self.L0, L0, self.alive, self._shares)
+        self.T, self.L0 = T, L0
+        if self.break_strain is not None and spec.melting is not None:
+            weak = np.clip((spec.melting - T) / (spec.melting - spec.initial), 0.0, 1.0)
+            self.limit = self.break_strain * weak
+        return work
+
+    def _share(self):
+        """Each bond's share in this piece's energy: half per owned end."""
+        owned = self.part.layout.n_owned
+        return 0.5 * ((self.i < owned).astype(float) + (self.j < owned).astype(float))
 
     def restore_broken(self, rows):
         """Bonds broken before a checkpoint (rows as recorded, any rank layout):
         broken again here, their record and released energy on the piece that
         owns their first particle."""
-        rows = np.asarray(rows, dtype=float).reshape(-1, 4 + self.dim) if len(rows) else \
-            np.zeros((0, 4 + self.dim))
+        rows = np.asarray(rows, dtype=float).reshape(-1, 6 + self.dim) if len(rows) else \
+            np.zeros((0, 6 + self.dim))
         pairs = {(int(a), int(b)) for a, b in rows[:, -2:].astype(np.int64).tolist()}
         key = list(zip(self.nodes[:, 0].tolist(), self.nodes[:, 1].tolist()))
         self.alive = np.array([pair not in pairs for pair in key], dtype=bool)
@@ -143,9 +213,15 @@ class BondForce:
         mine = [r for r in rows.tolist() if int(r[-2]) in owned]
         self.broken = [tuple(r[:-2]) + (int(r[-2]), int(r[-1])) for r in mine]
         at = {pair: b for b, pair in enumerate(key)}
-        self.released = float(sum(0.5 * self.k[at[(int(r[-2]), int(r[-1]))]] *
-                                  (r[-3] * self.L0[at[(int(r[-2]), int(r[-1]))]]) ** 2
-                                  for r in mine))
+        spec = self.heat
+        released = 0.0
+        for r in mine:                       # r: t, midpoint, strain, limit, T, i, j
+            b = at[(int(r[-2]), int(r[-1]))]
+            L0 = self.L_cold[b]
+            if spec is not None and np.isfinite(r[-3]):
+                L0 *= 1.0 + spec.expansion * (r[-3] - spec.initial)
+            released += 0.5 * self.k[b] * (r[-5] * L0) ** 2
+        self.released = float(released)
 
     def damage(self) -> np.ndarray:
         """Fraction of its lattice bonds each owned particle has lost [n_owned]."""
@@ -166,9 +242,7 @@ class BondForce:
         plus the other elements' (owned rows)."""
         _, _, L = self._bonds(part.u)
         e = np.where(self.alive, 0.5 * self.k * (L - self.L0) ** 2, 0.0)
-        owned = part.layout.n_owned                        # nodes (part.n_own counts DOFs)
-        share = 0.5 * ((self.i < owned).astype(float) + (self.j < owned).astype(float))
-        total = float(np.dot(e, share))
+        total = float(np.dot(e, self._share()))
         if self.contact is not None:             # of the last force evaluation (one piece)
             total += self.contact.energy
         if self.operator is not None:

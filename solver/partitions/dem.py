@@ -63,7 +63,8 @@ class DemPartition(Partition):
             stiff = BondStiffness(stiff.points, conn, np.concatenate([k.k for _, k in lattice]))
         other = self.operator(others, scale=-1.0) if others else None
         contact = getattr(model, "contact", None)
-        force = BondForce(self, (conn, stiff), other, others, B, model.break_strain, contact)
+        force = BondForce(self, (conn, stiff), other, others, B, model.break_strain, contact,
+                          getattr(model, "heat", None))
         strain = (f", breaking beyond strain {model.break_strain:g}"
                   if model.break_strain is not None else "")
         if contact is not None:

@@ -141,9 +141,23 @@ class Partition:
             getattr(self, name).setOptionsPrefix(self.prefix)
         self.force = self.build_force(model, layout)
         self._internal = self.force.internal
+        self.thermal = None
+        heat = getattr(model, "heat", None)
+        if heat is not None and heat.spec.expansion > 0 and self.force.blocks:
+            from solver.partitions.thermal import ThermalForce
+            self.thermal = ThermalForce(self, self.force.blocks, model.points, heat.n_model,
+                                        heat.spec)
+            self.built.append("thermal forces alpha G dT of the elements (G: "
+                              f"{self.held_dofs.size}x{heat.n_model})")
         self._step = self.integrator.bind(self)
         self.steps = 0
         self.wall = 0.0
+        # the energy audit of fracture and heat: the damping's dissipation
+        self.track_dissipation = bool(self.damping) and (
+            not self.force.linear or getattr(model, "heat", None) is not None or
+            getattr(model, "break_strain", None) is not None)
+        self.dissipated = 0.0
+        self.stepping = False
 
     # ------------------------------------------------------------------ set-up
     def build_force(self, model, layout):
@@ -207,17 +221,41 @@ class Partition:
             if self.damping and v is not None:
                 self.force.tangent().mult(v, self.am_v)            # -K0 v
                 self.r.axpy(self.damping.beta, self.am_v)
+                self._dissipate(v, -self.damping.beta)
                 self.am_v.pointwiseMult(self.alpha_m, v)
                 self.r.axpy(-1.0, self.am_v)
+                self._dissipate(v, 1.0)
         elif self.damping and v is not None:
+            if self.track_dissipation:                                # beta v K v: one MatMult
+                self._internal(v, self.am_v)
+                self._dissipate(v, -self.damping.beta)
             self.uv.waxpy(self.damping.beta, v, u)
             self._internal(self.uv, self.r)
             self.am_v.pointwiseMult(self.alpha_m, v)
             self.r.axpy(-1.0, self.am_v)
+            self._dissipate(v, 1.0)
         else:
             self._internal(u, self.r)
         for group in self._loads:
             group.apply(self.R, t)
+        if self.thermal is not None:
+            self.R += self.thermal.force
+
+    def set_temperature(self, T_node, count=True):
+        """Model-node temperatures (``heat``): thermal forces, bond rest lengths and
+        strengths follow; their work goes into the external work."""
+        if self.thermal is not None:
+            self.work += self.thermal.set_temperature(T_node, count)
+        if hasattr(self.force, "set_temperature"):
+            self.work += self.force.set_temperature(T_node, count)
+
+    def _dissipate(self, v, scale):
+        """dissipated += h scale v . am_v over the owned DOFs (the damping power
+        of the step, at the velocity the residual uses), once stepping."""
+        if self.track_dissipation and self.stepping:
+            n = self.n_own
+            self.dissipated += self.dt * scale * float(
+                np.dot(v.getArray(readonly=True)[:n], self.am_v.getArray(readonly=True)[:n]))
 
     def accelerate(self):
         """a = M^-1 r; under the taylor treatment external a keeps its exchanged value."""
@@ -231,6 +269,7 @@ class Partition:
         self.residual(0.0, self.u, self.v)
         self.a.pointwiseMult(self.r, self.minv)
         self._remember_loads()
+        self.stepping = True
 
     def load_memory(self) -> dict:
         """{load key: last load value} of the owned load groups (checkpoint state)."""
@@ -272,14 +311,14 @@ class Partition:
         self.steps += self.n_sub
 
     def energies(self):
-        """(kinetic, strain, external work) of the owned DOFs.
+        """(kinetic, strain, external work, dissipated by damping) of the owned DOFs.
 
         Strain energy is 1/2 sum_owned u_i (K u)_i, which sums to 1/2 u^T K u
         over all partitions because owned rows of a partition's K are complete.
         """
         n = self.n_own
         kinetic = 0.5 * float(np.dot(self.mass[:n], self.V[:n] ** 2))
-        return kinetic, self.force.energy(self), self.work
+        return kinetic, self.force.energy(self), self.work, self.dissipated
 
     def work_array(self, name: str) -> np.ndarray:
         """numpy view of an integrator work Vec (``ut``, ``vt`` for Newmark)."""
@@ -293,6 +332,8 @@ class Partition:
         for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
             getattr(self, name).destroy()
         self.force.destroy()
+        if self.thermal is not None:
+            self.thermal.destroy()
         for vec in self._views:
             vec.destroy()
         if self.damping:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from solver.scene.schema import fail, key
+from solver.scene.heat_spec import HeatSpec
 from solver.scene.model_spec import ContinuumModel, NetworkModel, _model, _node_set
 
 
@@ -228,6 +229,10 @@ class Guard:
     energy_bound: float = key(
         "stop when total energy exceeds this factor times (initial energy + largest |external "
         "work| so far)", 10.0, positive=True)
+    max_displacement: float | None = key(
+        "stop (output marked failed) when a node or particle has moved farther than this [m]: "
+        "particles flying apart; default for continua: the body's largest extent", None,
+        positive=True)
 
 
 @dataclass(frozen=True)
@@ -252,6 +257,8 @@ class Scene:
         variants=(MonolithicReference, BarWaveReference))
     output: Output | None = key("output file; default results/<name>.h5", None)
     guard: Guard = key("stability and blow-up guards", Guard())
+    heat: HeatSpec | None = key("continuum models: heat conduction, laser heating and thermal "
+                                "expansion (docs/heat.md)", None)
 
     # --- derived -------------------------------------------------------
     @property
@@ -351,6 +358,8 @@ class Scene:
             if probe.name in seen:
                 fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
             seen.add(probe.name)
+        if self.heat is not None:
+            self._check_heat(continuum)
         if self.output and self.output.fields and not continuum:
             fail("output.fields", "field output is for continuum models")
         if self.reference == "modal" and self.damping.active and self.loads:
@@ -371,6 +380,17 @@ class Scene:
                      f"{self.system_dt}")
             if continuum and self.reference.integrator != "explicit":
                 fail("reference.integrator", "continuum references run the explicit fem integrator")
+
+    def _check_heat(self, continuum):
+        if not continuum:
+            fail("heat", "heat conduction needs a continuum model (a mesh to conduct on)")
+        mat = self.model.material
+        if self.heat.laser is not None and mat.kind != "plane_stress":
+            fail("heat.laser", f"needs model.material.kind plane_stress (a thin plate heated "
+                 f"through its thickness), not {mat.kind}")
+        lat = self.model.lattice
+        if self.heat.melting is not None and (lat is None or lat.break_strain is None):
+            fail("heat.melting", "weakens breakable bonds: needs model.lattice.break_strain")
 
     def _check_staggered(self):
         parts, scheme = self.partitions, self.coupling.scheme

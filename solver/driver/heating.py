@@ -1,0 +1,65 @@
+"""The two clocks of a heated run (``heat``): a documented time scaling.
+
+Heating takes seconds, elastic waves need sub-microsecond steps.  One thermal
+step of ``heat.step`` seconds of heating spans ``heat.every`` mechanical system
+steps, so on the mechanical clock the heating runs S = step / (every x system
+step) times faster than in reality; before every system step the model-node
+temperatures at heating time S (t + Dt/2 - heat.start) (linear between thermal
+steps) set the thermal forces, the bond rest lengths and their strengths.
+The mechanics then follows the temperature quasi-statically as long as a
+thermal step spans many periods of the structure's slowest mode that the
+heating excites; docs/heat.md shows how the onset of cracking moves with
+``every``.  The heat does not feel the mechanics, so every rank steps the same
+conduction model (:mod:`solver.model.heat`) and a restart re-steps it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class Heating:
+    def __init__(self, conduction, parts, scene):
+        self.conduction = conduction.start()
+        self.parts = parts
+        self.spec = spec = scene.heat
+        self.Dt = scene.system_dt
+        self.scale = spec.step / (spec.every * self.Dt)
+        self.T_node = conduction.node_temperature(conduction.T)
+        self._last = None
+        self.series = {"t": [], "heating_time": [], "max_temperature": []}
+
+    def heating_time(self, t_mech: float) -> float:
+        return max(0.0, t_mech - self.spec.start) * self.scale
+
+    def describe(self) -> str:
+        c, spec = self.conduction, self.spec
+        laser = spec.laser
+        spot = (f"; laser spot at {list(laser.centre)} radius {laser.radius:g} m absorbing "
+                f"{laser.absorptivity * laser.power_density * np.pi * laser.radius ** 2:.4g} W"
+                if laser else "")
+        return (f"heat: conduction on {c.capacity.size} mesh nodes, thermal step {spec.step:g} s "
+                f"(explicit limit {c.critical:.4g} s) every {spec.every} system steps: heating "
+                f"runs {self.scale:.4g} x faster on the mechanical clock{spot}")
+
+    def update(self, s: int):
+        """The temperatures for system step s -> s + 1 (at its midpoint)."""
+        th = self.heating_time((s + 0.5) * self.Dt)
+        if th == self._last:
+            return
+        c = self.conduction
+        steps = c.steps
+        self.T_node = c.node_temperature(c.at(th))
+        first = self._last is None
+        for part in self.parts:
+            part.set_temperature(self.T_node, count=not first)
+        self._last = th
+        if c.steps != steps or first:
+            self.series["t"].append(s * self.Dt)
+            self.series["heating_time"].append(th)
+            self.series["max_temperature"].append(float(self.T_node.max()))
+
+    def arrays(self) -> dict:
+        return {k: np.asarray(v) for k, v in self.series.items()}
+
+    def destroy(self):
+        self.conduction.destroy()

@@ -1,0 +1,155 @@
+"""Heat: conduction with a laser spot, thermal expansion, temperature-weakened
+bonds (solver/model/heat.py, solver/partitions/thermal.py, issue 10)."""
+from __future__ import annotations
+
+import types
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import raw_scene, refused, run_scene
+
+ALPHA, DT = 2.3e-5, 50.0
+
+
+def centre_rise(t, rho=2700.0, c=900.0, h=6.5e-4, k=233.0, A=0.15, I=2.5e6, R=0.01):
+    """T - T0 at the centre of a Gaussian spot on an infinite insulated plate."""
+    kappa = k / (rho * c)
+    return A * 2 * I / (rho * c * h) * R ** 2 / (8 * kappa) * np.log(1 + 8 * kappa * t / R ** 2)
+
+
+def test_laser_heating_matches_the_gaussian_solution_at_second_order(tmp_path):
+    """Centre temperature after 0.1 s of heating on meshes of 4, 2, 1 mm (thermal
+    step ~ h^2): relative errors 1.4e-2, 2.9e-3, 6.8e-4, order > 1.9."""
+    errors = []
+    for h in (0.004, 0.002, 0.001):
+        raw = raw_scene("laser_disc")
+        raw["model"]["mesh_parameters"]["h"] = h
+        step = 1.6e-2 * (h / 0.004) ** 2
+        raw["heat"]["step"] = step
+        raw["time"]["end"] = (round(0.1 / step) + 1) * 1e-7
+        raw["output"].pop("fields")
+        res = run_scene(raw, tmp_path)
+        th, T = res.heat["heating_time"][-1], res.heat["max_temperature"][-1]
+        errors.append(abs((T - 293.0) / centre_rise(th) - 1))
+    order = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert errors[-1] < 1e-3 and np.all(order > 1.9), (errors, order)
+
+
+def built(raw, tmp_path):
+    from mpi4py import MPI
+
+    from solver import scene as scene_mod
+    from solver.driver.build import build
+    from solver.model import binding
+    from solver.petscutil import init
+    init([])
+    raw = dict(raw, output={"file": str(tmp_path / "h.h5")})
+    return build(binding.bind(scene_mod.from_dict(raw)), MPI.COMM_SELF)
+
+
+def heated(raw):
+    raw["loads"] = []
+    raw.pop("reference", None)
+    raw["heat"] = {"conductivity": 233.0, "specific_heat": 900.0, "expansion": ALPHA,
+                   "step": 1e-6, "every": 1}
+    return raw
+
+
+@pytest.mark.parametrize("geometry", ["linear", "nonlinear"])
+def test_free_thermal_expansion_is_stress_free(geometry, tmp_path):
+    """u = alpha dT (X - X_c) at a uniform dT: FE cells, bonds carried to the
+    transition band and lattice bonds (small-strain or current-configuration)
+    all balance to round-off (1e-9 of the thermal forces)."""
+    raw = heated(raw_scene("wave_bar_transition"))
+    raw["model"]["lattice"]["geometry"] = geometry
+    asm = built(raw, tmp_path)
+    T = np.full(asm.model.n_nodes, 293.0 + DT)
+    for p in asm.parts:
+        p.set_temperature(T, count=False)
+        X = asm.model.points[p.layout.held]
+        p.U[:] = (ALPHA * DT * (X - X.mean(axis=0))).ravel()
+        p.residual(0.0, p.u, None)
+        n = p.n_own
+        scale = np.abs(p.thermal.force[:n]).max()
+        assert scale > 1.0 and np.abs(p.R[:n]).max() < 1e-9 * scale
+    asm.destroy()
+
+
+def test_a_bar_held_between_walls_carries_the_exact_thermal_stress(tmp_path):
+    """A strip 40 x 8 mm between walls (u_x = 0) at dT = 50 K: the uniaxial field
+    u_y = (1 + nu) alpha dT (y - y_c) balances every free node to round-off, the
+    stress at a probe is -E alpha dT exactly and the walls push with E alpha dT W t."""
+    from solver.driver.stress import build as stress_probes
+    raw = heated(raw_scene("laser_disc"))
+    raw["model"]["mesh_parameters"] = {"L": 0.04, "W": 0.008, "h": 0.002}
+    raw["probes"] = [{"name": "P", "at": [0.02, 0.004], "component": 0}]
+    asm = built(raw, tmp_path)
+    mdl, (p,) = asm.model, asm.parts
+    T = np.full(mdl.n_nodes, 293.0 + DT)
+    p.set_temperature(T, count=False)
+    X = mdl.points[p.layout.held]
+    nu, E, t = 0.33, 70e9, 6.5e-4
+    U = np.zeros_like(X)
+    U[:, 1] = (1 + nu) * ALPHA * DT * (X[:, 1] - 0.004)
+    p.U[:] = U.ravel()
+    p.residual(0.0, p.u, None)
+    R = p.R.reshape(-1, 2)
+    wall = np.isclose(X[:, 0], 0.0) | np.isclose(X[:, 0], 0.04)
+    sigma = E * ALPHA * DT
+    assert np.abs(R[~wall]).max() < 1e-9 * sigma * t * 0.002
+    assert np.abs(R[wall, 1]).max() < 1e-9 * sigma * t * 0.002
+    push = R[np.isclose(X[:, 0], 0.04), 0].sum()              # what the right wall must hold
+    assert abs(push / (sigma * 0.008 * t) - 1) < 1e-12
+    probes = stress_probes(_scene(raw, tmp_path), mdl, asm.parts)
+    probes.heating = types.SimpleNamespace(T_node=T, spec=mdl.heat.spec)
+    assert abs(probes.values()["P"] / -sigma - 1) < 1e-12
+    asm.destroy()
+
+
+def _scene(raw, tmp_path):
+    from solver import scene as scene_mod
+    from solver.model import binding
+    return binding.bind(scene_mod.from_dict(dict(raw, output={"file": str(tmp_path / "h.h5")})))
+
+
+def test_heated_bonds_weaken_and_break_with_their_temperature(tmp_path):
+    """A lattice stretched by 1e-4 along x: x bonds strain 1e-4, diagonals 5e-5.
+    At T with a critical strain of 7.5e-5 (break_strain 1e-4, melting 993 K:
+    T = 293 + 0.25 x 700 K) the x bonds break, the diagonals hold; the record
+    gives strain, critical strain and temperature."""
+    raw = heated(raw_scene("wave_bar_transition"))
+    raw["model"]["lattice"].update(geometry="nonlinear", break_strain=1e-4)
+    raw["heat"]["melting"] = 993.0
+    raw["heat"]["expansion"] = 0.0
+    asm = built(raw, tmp_path)
+    dem = next(p for p in asm.parts if p.method == "dem")
+    f = dem.force
+    T = np.full(asm.model.n_nodes, 293.0 + 0.25 * 700.0)
+    dem.set_temperature(T, count=False)
+    assert np.allclose(f.limit, 7.5e-5)
+    X = f.X[:f.n_held]
+    dem.U[:] = np.stack([1e-4 * X[:, 0], 0 * X[:, 1]], 1).ravel()
+    dem.residual(0.0, dem.u, None)
+    d = f.X[f.j] - f.X[f.i]
+    along_x = np.abs(d[:, 1]) < 1e-12
+    assert not f.alive[along_x].any() and f.alive[~along_x].all()
+    rows = np.array(f.broken)
+    assert rows.shape[1] == 8 and np.allclose(rows[:, 3], 1e-4, rtol=1e-6)
+    assert np.allclose(rows[:, 4], 7.5e-5) and np.allclose(rows[:, 5], 468.0)
+    asm.destroy()
+
+
+@pytest.mark.parametrize("sets, message", [
+    (["heat.laser.centre=[0.1, 0.04]"], "heat.laser.centre: [0.1, 0.04] lies off the plate"),
+    (["heat.step=0.05"], "heat.step: 0.05 s is beyond the explicit conduction limit 0.02"),
+    (["heat.melting=250"], "heat.melting: 250 K is not above heat.initial 293 K"),
+    (["heat.melting=900"], "heat.melting: weakens breakable bonds: needs model.lattice.break_strain"),
+    (["model.material.kind=plane_strain"], "heat.laser: needs model.material.kind plane_stress"),
+    (["heat.laser.absorptivity=1.5"], "heat.laser.absorptivity: 1.5: a fraction of the light"),
+    (["heat.conductivity=-3"], "heat.conductivity"),
+])
+def test_bad_heat_input_is_refused_in_one_line(sets, message, tmp_path):
+    line = refused("configs/laser_disc.yaml", sets, tmp_path)
+    assert message in line, line
