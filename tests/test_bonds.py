@@ -79,23 +79,14 @@ def test_small_strains_agree_with_the_linear_operator(tmp_path):
     asm.destroy()
 
 
-def tension(tmp_path, n=None, dem_ranks=None):
+def tension(tmp_path):
     """A tension pulse through the bar at FE step = DE step (no damping needed):
     the x-bonds at the DEM region's first column break as it arrives."""
     raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
                     damping__beta=0.0)
     raw["loads"][0]["direction"] = [-1.0, 0.0]
     raw["time"]["end"] = 3.4e-5                   # the breaks start at 31.7 us
-    if dem_ranks:
-        raw["partitions"][0]["ranks"], raw["partitions"][1]["ranks"] = 1, dem_ranks
-    if n is None:
-        return run_scene(raw, tmp_path)
-    raw["output"] = {"file": str(tmp_path / f"t{n}.h5"), "progress": 0}
-    proc = run_cli([write_scene(tmp_path / f"t{n}.yaml", raw)], n=n, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    with h5py.File(tmp_path / f"t{n}.h5") as f:
-        return (f["broken_bonds"][()], f["probes/A/t"][()],
-                *(f[f"probes/{p}/displacement"][()] for p in "ABC"))
+    return run_scene(raw, tmp_path)
 
 
 def test_bonds_break_when_the_tension_pulse_arrives_and_the_energy_adds_up(tmp_path):
@@ -133,23 +124,50 @@ def test_the_energy_audit_of_a_damped_breaking_run_closes(tmp_path):
     assert abs(e["total"][-1] + released + e["dissipated"][-1] - work) < 1e-3 * work
 
 
-def test_breakage_on_one_and_three_ranks_agrees(tmp_path):
-    """The dem partition split over two ranks (ghost particles by VecScatter):
-    the same bonds break at the same system steps (where and at what strain to
-    1e-12); the histories agree to 1e-12 of the peak displacement until the
-    first break and to 1e-9 after it (round-off around the breaks)."""
-    one = tension(tmp_path, n=1)
-    three = tension(tmp_path, n=3, dem_ranks=2)
-    assert one[0].shape == three[0].shape and len(one[0]) > 0
-    a, b = (x[np.lexsort((x[:, 7], x[:, 6], x[:, 0]))] for x in (one[0], three[0]))
+def closing_crack_cli(tmp_path, n, dem_ranks=None):
+    """The closing crack (tension, then compression) with a spring-dashpot
+    contact, to 70 us, through the CLI on n ranks: (broken bonds sorted, t,
+    displacements at A, B, C, stress at B)."""
+    raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
+                    damping__beta=2e-9)
+    raw["model"]["lattice"]["contact"] = {"stiffness": 1.68e7, "damping_ratio": 0.5}
+    raw["time"]["end"] = 7.0e-5                   # B feels the closed crack from 65 us
+    raw["reference"] = "none"
+    raw["loads"] = [dict(raw["loads"][0], direction=[-1.0, 0.0]),
+                    dict(raw["loads"][0], start=2.0e-5, duration=3.0e-5)]
+    if dem_ranks:
+        raw["partitions"][0]["ranks"], raw["partitions"][1]["ranks"] = 1, dem_ranks
+    raw["output"] = {"file": str(tmp_path / f"c{n}.h5"), "progress": 0}
+    proc = run_cli([write_scene(tmp_path / f"c{n}.yaml", raw)], n=n, timeout=400)
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(tmp_path / f"c{n}.h5") as f:
+        b = f["broken_bonds"][()]
+        return (b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))], f["probes/A/t"][()],
+                *(f[f"probes/{p}/displacement"][()] for p in "ABC"), f["probes/B/stress"][()])
+
+
+def test_breakage_and_contact_on_one_and_three_ranks_agree(tmp_path):
+    """The dem partition split over two ranks (ghost particles by VecScatter;
+    for contact every piece sees every particle): a tension pulse breaks the
+    core's first column, a compression pulse closes the crack through the
+    spring-dashpot contacts.  The same bonds break at the same system steps
+    (where and at what strain to 1e-12); the histories agree to 1e-12 of the
+    peak displacement until the first break and to 1e-9 after it."""
+    one = closing_crack_cli(tmp_path, 1)
+    three = closing_crack_cli(tmp_path, 3, dem_ranks=2)
+    assert one[0].shape == three[0].shape and len(one[0]) >= 37
+    a, b = one[0], three[0]
     assert np.array_equal(a[:, [0, 4, 6, 7]], b[:, [0, 4, 6, 7]])   # which bonds, when
     assert np.abs(a[:, 1:4] - b[:, 1:4]).max() <= 1e-12 * np.abs(a[:, 1:4]).max()
     t = one[1]
     before = t < a[:, 0].min()
-    scale = max(np.abs(h).max() for h in one[2:])                  # the peak displacement
-    for x, y in zip(one[2:], three[2:]):
+    scale = max(np.abs(h).max() for h in one[2:5])                 # the peak displacement
+    for x, y in zip(one[2:5], three[2:5]):
         assert np.abs(x - y)[before].max() <= 1e-12 * scale       # until the first break
         assert np.abs(x - y).max() <= 1e-9 * scale                 # and after it
+    sb = one[5]
+    assert sb.min() < -0.8 * 1.0e4 / 3.2e-4                         # B compressed through the crack
+    assert np.abs(sb - three[5]).max() <= 1e-9 * np.abs(sb).max()
 
 
 @pytest.mark.parametrize("sets,message", [
@@ -239,15 +257,6 @@ def test_contact_input_is_checked(tmp_path):
                     "--set", "model.lattice.contact={stiffness: 1.0e7}"])
     assert proc.returncode == 2
     assert "model.lattice.contact: needs geometry: nonlinear" in proc.stderr
-    raw = nonlinear(model__lattice__contact={"stiffness": 1.0e7})
-    raw["time"] = {"end": 1e-6, "dt": 5e-9}
-    raw["partitions"][0]["ranks"], raw["partitions"][1]["ranks"] = 1, 2
-    raw["output"] = {"file": str(out)}
-    proc = run_cli([write_scene(tmp_path / "c.yaml", raw)], n=3, timeout=120)
-    assert proc.returncode == 2, proc.stderr
-    line, = proc.stderr.strip().splitlines()
-    assert "contact needs it on one rank for now" in line
-    assert not out.exists()
 
 
 def test_particle_fields_show_the_damage(tmp_path):
@@ -314,3 +323,44 @@ def test_the_compiled_bond_loop_matches_the_numpy_reference(tmp_path):
     assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
     assert np.allclose(rows_a, rows_b, rtol=1e-12, equal_nan=True) and abs(rel_a / rel_b - 1) < 1e-12
     asm.destroy()
+
+
+@pytest.mark.parametrize("law", ["linear", "hertz"])
+def test_contact_laws_and_the_dashpot_on_two_particles(law):
+    """Two unbonded particles of radius r at overlap d approaching at speed w:
+    the spring force is k d (linear) or k d^1.5 (hertz) with energy 1/2 k d^2 or
+    2/5 k d^2.5, the dashpot adds 2 zeta sqrt(k_t m*) w (k_t the tangent) and
+    dissipates c w^2; both act along the line of centres, equal and opposite."""
+    from solver.partitions.contact import Contact
+    r, k, zeta, d, w = 1e-3, 2e7, 0.3, 1e-5, 0.4
+    m = np.array([2e-6, 6e-6])
+    unit = np.array([0.6, 0.8])
+    x = np.array([[0.0, 0.0], (2 * r - d) * unit])
+    c = Contact(np.arange(2), (r, k, 0.3 * r, law, zeta), np.zeros(0, np.int64),
+                np.zeros(0, np.int64), m)
+    out = np.zeros((2, 2))
+    c.forces(x, np.zeros(0, bool), out, 2)
+    f, kt, energy = ((k * d, k, 0.5 * k * d ** 2) if law == "linear" else
+                     (k * d ** 1.5, 1.5 * k * d ** 0.5, 0.4 * k * d ** 2.5))
+    assert np.allclose(out[1], f * unit, rtol=1e-9) and np.allclose(out[0], -out[1], rtol=1e-12)
+    assert abs(c.energy / energy - 1) < 1e-9
+    v = np.array([[0.0, 0.0], -w * unit])                     # particle 1 approaches
+    dash = np.zeros((2, 2))
+    power = c.viscous(v, dash, 2)
+    cn = 2 * zeta * np.sqrt(kt * m[0] * m[1] / m.sum())
+    assert np.allclose(dash[1], cn * w * unit, rtol=1e-9) and np.allclose(dash[0], -dash[1])
+    assert abs(power / (cn * w ** 2) - 1) < 1e-12
+
+
+def test_a_crack_closing_on_a_spring_dashpot_dissipates_and_the_audit_closes(tmp_path):
+    """The closing-crack scene with a dashpot ratio of 0.5: compression still
+    passes, the contacts dissipate energy, and kinetic + strain + released +
+    dissipated = work to 1e-3."""
+    res = crack({"stiffness": 1.68e7, "damping_ratio": 0.5}, tmp_path)
+    t, s = res.probes["C"]["t"], res.probes["C"]["stress"]
+    assert s[t > 7.0e-5].min() < -0.8 * 1.0e4 / 3.2e-4
+    e = res.energy
+    released = res.partitions["dem"]["released_energy"]
+    work = e["external_work"][-1]
+    assert e["dissipated"][-1] > 0
+    assert abs(e["total"][-1] + released + e["dissipated"][-1] - work) < 1e-3 * abs(work)

@@ -37,7 +37,7 @@ class BondForce:
     linear = False
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
-                 contact=None, heat=None):
+                 contact=None, heat=None, node_mass=None):
         P = init()
         self.part = part
         self.operator = linear_op            # the other elements' -K (None if there are none)
@@ -49,6 +49,7 @@ class BondForce:
         conn, stiff = lattice_block
         lay = part.layout
         held = lay.held
+        whole = np.unique(conn)              # every lattice particle of the partition
         # bonds with at least one owned end: this piece's rows
         local = lay.local(conn.ravel()).reshape(conn.shape)
         mine = ((local >= 0) & (local < lay.n_owned)).any(axis=1)
@@ -58,6 +59,9 @@ class BondForce:
         order = np.lexsort((ghost_last[:, 1], ghost_last[:, 0]))
         conn, k, local = conn[order], k[order], local[order]
         ghosts = np.unique(conn[local < 0])                  # another piece's particles
+        if contact is not None and part.comm.size > 1:
+            # an owned particle may touch any other: every particle of the partition is seen
+            ghosts = np.union1d(ghosts, whole[lay.local(whole) < 0])
         at = np.searchsorted(ghosts, conn)
         local = np.where(local < 0, held.size + at, local)  # ghosts after the held nodes
         self.i, self.j = local[:, 0], local[:, 1]
@@ -79,7 +83,7 @@ class BondForce:
         self.broken = []                     # (t, midpoint..., strain, node i, node j)
         self.released = 0.0                  # energy of the broken bonds [J]
         self.now = 0.0
-        self._ghost = None
+        self._ghost = self._gv = None
         if part.comm.size > 1 or ghosts.size:
             number = part.dist.number[ghosts]
             idx = (number[:, None] * dim + np.arange(dim)).ravel().astype(P.IntType)
@@ -95,10 +99,12 @@ class BondForce:
         self._x = np.zeros_like(self.X)            # positions of held + ghost particles
         self._snapped = np.zeros(len(k), dtype=np.int64)
         self.contact = None
-        if contact is not None:                  # (radius, kn, skin): the lattice's particles
+        if contact is not None:                  # the lattice's particles, held and ghosts
             from solver.partitions.contact import Contact
-            particles = np.unique(np.concatenate([self.i, self.j]))
-            self.contact = Contact(particles, *contact, self.i, self.j)
+            loc = lay.local(whole)
+            particles = np.where(loc >= 0, loc, held.size + np.searchsorted(ghosts, whole))
+            mass = node_mass[np.concatenate([held, ghosts])]
+            self.contact = Contact(particles, contact, self.i, self.j, mass, lay.n_owned)
 
     # ---------------------------------------------------------------- state
     def _positions(self, u_vec):
@@ -134,6 +140,22 @@ class BondForce:
                         - self.L0[which])
         if self.contact is not None:
             self.contact.forces(x, self.alive, out, n)
+
+    def viscous(self, v_vec, out_vec) -> float:
+        """Add the contacts' dashpot forces at velocities ``v_vec`` (contacts of the
+        last :meth:`internal`); returns their dissipated power."""
+        if self.contact is None or not self.contact.zeta:
+            return 0.0
+        n = self.n_held
+        v = v_vec.getArray(readonly=True)
+        if self._ghost is not None:                  # the ghosts' velocities, like their u
+            if self._gv is None:
+                self._gv = (np.zeros(self._g_arr.size),)
+                self._gv += (vec_on(self._gv[0], init().COMM_SELF),)
+            self._ghost.scatter(v_vec, self._gv[1], *self._modes)
+            v = np.concatenate([v, self._gv[0]])
+        return self.contact.viscous(v.reshape(-1, self.dim),
+                                    out_vec.getArray().reshape(n, self.dim), n)
 
     def reference_internal(self, u_vec, out_vec):
         """The same force in numpy (gather, multiply, bincount): the reference
@@ -256,5 +278,5 @@ class BondForce:
             if obj is not None:
                 obj.destroy()
         if self._ghost is not None:
-            for obj in (self._ghost, self._is, self._g_vec):
+            for obj in (self._ghost, self._is, self._g_vec, *(self._gv or ())[1:]):
                 obj.destroy()

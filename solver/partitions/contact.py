@@ -1,19 +1,25 @@
 """Contact between lattice particles that are not bonded (``model.lattice.contact``).
 
 Particles are spheres of radius r: two that are closer than 2r and share no
-live bond push each other apart with a linear spring,
-f = k_n (2r - d) along the line of centres (energy 1/2 k_n (2r - d)^2).  A
-pair bonded at rest is never in contact while its bond lives; once the bond
+live bond push each other apart along the line of centres n, with the
+overlap d = 2r - |x_j - x_i|:
+- law linear: f = k_n d (energy 1/2 k_n d^2);
+- law hertz:  f = k_h d^1.5 (energy 2/5 k_h d^2.5), tangent 1.5 k_h d^0.5;
+- a normal dashpot (``damping_ratio`` zeta) adds c v_approach, c = 2 zeta
+  sqrt(k m*) with k the tangent stiffness and m* the pair's reduced mass (a
+  spring-dashpot; its dissipation enters the energy audit).
+A pair bonded at rest is never in contact while its bond lives; once the bond
 breaks, the two touch again only when pressed closer than 2r, so a crack
 that opens transmits nothing and a crack that closes transmits compression.
+There is no tangential friction.
 
 Candidate pairs come from a k-d tree (scipy's cKDTree) over the particles
 within 2r + skin, rebuilt only when some particle has moved more than half
 the skin since the last build; the search and its arrays exist only in
 scenes with ``model.lattice.contact``.  The stable step accounts for contact
 springs with a bound: lambda_max(K_bonds + K_contact) <= lambda_bonds +
-2 z k_n / m_min, z the largest coordination of equal spheres (6 in 2D, 12 in
-3D).
+2 z k / m_min, z the largest coordination of equal spheres (6 in 2D, 12 in
+3D), k the tangent stiffness (hertz: at an overlap of 0.1 r).
 """
 from __future__ import annotations
 
@@ -24,19 +30,32 @@ def coordination(dim: int) -> int:
     return 6 if dim == 2 else 12
 
 
+def bound_stiffness(contact) -> float:
+    """The contact stiffness the step bound uses, from (radius, k, skin, law, zeta)."""
+    radius, k, _, law, _ = contact
+    return 1.5 * k * np.sqrt(0.1 * radius) if law == "hertz" else k
+
+
 class Contact:
     """Repulsive contact of the particles ``nodes`` (local indices into the
-    position array) with radius ``radius`` and normal stiffness ``kn``."""
+    position array) with the settings ``(radius, stiffness, skin, law,
+    damping ratio)``; ``mass``: each position's particle mass (the dashpot).
+    Positions below ``owned`` are this piece's own particles: only pairs with
+    one of them count here, their energy and dissipation half per owned end
+    (a dem partition split over ranks sees every particle's position)."""
 
-    def __init__(self, nodes, radius, kn, skin, bonded_i, bonded_j):
+    def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None):
         self.nodes = np.asarray(nodes, dtype=np.int64)
-        self.radius, self.kn, self.skin = radius, kn, skin
+        self.radius, self.kn, self.skin, self.law, self.zeta = settings
         n = int(max(self.nodes.max(initial=0), bonded_i.max(initial=0), bonded_j.max(initial=0))) + 1
         self._n = n
+        self.mass = mass
+        self.owned = np.iinfo(np.int64).max if owned is None else owned
         a, b = np.minimum(bonded_i, bonded_j), np.maximum(bonded_i, bonded_j)
         self._bond_key = a * n + b                    # bond b's pair key (local indices)
         self._x_built = None
         self._pairs = np.zeros((0, 2), dtype=np.int64)
+        self._last = None                             # (i, j, n, tangent k) of the last forces
         self.builds = 0
         self.energy = 0.0
 
@@ -52,9 +71,9 @@ class Contact:
         """(i, j, d = x_j - x_i, distance, overlap) of the candidate pairs (of
         ``node`` only, if given) that overlap and share no live bond."""
         i, j = self._pairs[:, 0], self._pairs[:, 1]
-        if node is not None:
-            at = (i == node) | (j == node)
-            i, j = i[at], j[at]
+        at = (i == node) | (j == node) if node is not None else \
+            (i < self.owned) | (j < self.owned)
+        i, j = i[at], j[at]
         key = np.minimum(i, j) * self._n + np.maximum(i, j)
         d = x[j] - x[i]
         dist = np.linalg.norm(d, axis=1)
@@ -62,11 +81,23 @@ class Contact:
         touch = (overlap > 0) & ~np.isin(key, self._bond_key[alive]) & (dist > 0)
         return i[touch], j[touch], d[touch], dist[touch], overlap[touch]
 
+    def _law(self, overlap):
+        """(force, tangent stiffness, energy) of each overlap."""
+        if self.law == "hertz":
+            root = np.sqrt(overlap)
+            return self.kn * overlap * root, 1.5 * self.kn * root, 0.4 * self.kn * overlap ** 2 * root
+        return self.kn * overlap, np.full(overlap.shape, self.kn), 0.5 * self.kn * overlap ** 2
+
+    def _share(self, i, j):
+        """Each pair's share here: half per owned end."""
+        return 0.5 * ((i < self.owned).astype(float) + (j < self.owned).astype(float))
+
     def stress(self, x, alive, node, c) -> float:
         """sum over the contacts of ``node`` of f_c r_c (its virial, sign of tension):
-        a pushing contact has f = -k_n overlap n on the particle and r = dist n."""
+        a pushing contact has f = -f_n n on the particle and r = dist n."""
         _, _, d, dist, overlap = self._touching(x, alive, node)
-        return float(-np.sum((self.kn * overlap / dist) * d[:, c] ** 2))
+        f, _, _ = self._law(overlap)
+        return float(-np.sum((f / dist) * d[:, c] ** 2))
 
     def forces(self, x, alive, out, rows):
         """Add the contact forces at positions ``x`` to ``out`` (rows < ``rows``);
@@ -77,11 +108,30 @@ class Contact:
             self._build(x)
         i, j, d, dist, overlap = self._touching(x, alive)
         if not i.size:
-            self.energy = 0.0
+            self.energy, self._last = 0.0, None
             return
-        f = (self.kn * overlap / dist)[:, None] * d             # on j, away from i
-        self.energy = float(0.5 * self.kn * np.sum(overlap ** 2))
-        keep_i, keep_j = i < rows, j < rows
-        for c in range(out.shape[1]):
-            out[:, c] -= np.bincount(i[keep_i], f[keep_i, c], minlength=rows)
-            out[:, c] += np.bincount(j[keep_j], f[keep_j, c], minlength=rows)
+        f, k, energy = self._law(overlap)
+        self.energy = float(np.dot(energy, self._share(i, j)))
+        unit = d / dist[:, None]
+        self._last = (i, j, unit, k)
+        _scatter(out, rows, i, j, f[:, None] * unit)
+
+    def viscous(self, v, out, rows) -> float:
+        """Add the dashpot forces of the contacts of the last :meth:`forces` at
+        velocities ``v`` to ``out``; returns their dissipated power [W]."""
+        if self._last is None or not self.zeta:
+            return 0.0
+        i, j, unit, k = self._last
+        mi, mj = self.mass[i], self.mass[j]
+        c = 2 * self.zeta * np.sqrt(k * mi * mj / (mi + mj))
+        vn = np.einsum("pc,pc->p", v[j] - v[i], unit)          # separation rate
+        _scatter(out, rows, i, j, (-c * vn)[:, None] * unit)
+        return float(np.dot(c * vn ** 2, self._share(i, j)))
+
+
+def _scatter(out, rows, i, j, f):
+    """out[j] += f, out[i] -= f for rows < ``rows`` (f on j, away from i)."""
+    keep_i, keep_j = i < rows, j < rows
+    for c in range(out.shape[1]):
+        out[:, c] -= np.bincount(i[keep_i], f[keep_i, c], minlength=rows)
+        out[:, c] += np.bincount(j[keep_j], f[keep_j, c], minlength=rows)

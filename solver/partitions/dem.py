@@ -21,11 +21,6 @@ class DemPartition(Partition):
 
     def build_force(self, model, layout):
         self.force_model = model                 # (its contact settings: the stability bound)
-        if getattr(model, "contact", None) is not None and self.comm.size > 1:
-            from solver.errors import SceneError
-            raise SceneError(f"model.lattice.contact: dem partition '{self.name}' is split over "
-                             f"{self.comm.size} ranks; contact needs it on one rank for now "
-                             "(partitions[].ranks: 1)")
         n_p, dof = layout.n_held, self.dof
         # [particle, component] views; with differing DOF counts, flat views and
         # each particle's first DOF
@@ -64,12 +59,15 @@ class DemPartition(Partition):
         other = self.operator(others, scale=-1.0) if others else None
         contact = getattr(model, "contact", None)
         force = BondForce(self, (conn, stiff), other, others, B, model.break_strain, contact,
-                          getattr(model, "heat", None))
+                          getattr(model, "heat", None), model.mass)
         strain = (f", breaking beyond strain {model.break_strain:g}"
                   if model.break_strain is not None else "")
         if contact is not None:
-            strain += (f"; contact of unbonded particles (radius {contact[0]:g} m, k_n "
-                       f"{contact[1]:g} N/m, k-d tree with skin {contact[2]:g} m)")
+            radius, k, skin, law, zeta = contact
+            unit = "N/m^1.5" if law == "hertz" else "N/m"
+            dash = f", dashpot ratio {zeta:g}" if zeta else ""
+            strain += (f"; {law} contact of unbonded particles (radius {radius:g} m, stiffness "
+                       f"{k:g} {unit}{dash}, k-d tree with skin {skin:g} m)")
         ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
         self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
                           f"{strain}{ghosts}")

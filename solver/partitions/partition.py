@@ -141,6 +141,7 @@ class Partition:
             getattr(self, name).setOptionsPrefix(self.prefix)
         self.force = self.build_force(model, layout)
         self._internal = self.force.internal
+        self._viscous = getattr(self.force, "viscous", None)
         self.thermal = None
         heat = getattr(model, "heat", None)
         if heat is not None and heat.spec.expansion > 0 and self.force.blocks:
@@ -153,9 +154,9 @@ class Partition:
         self.steps = 0
         self.wall = 0.0
         # the energy audit of fracture and heat: the damping's dissipation
-        self.track_dissipation = bool(self.damping) and (
-            not self.force.linear or getattr(model, "heat", None) is not None or
-            getattr(model, "break_strain", None) is not None)
+        self.track_dissipation = not self.force.linear or (bool(self.damping) and (
+            getattr(model, "heat", None) is not None or
+            getattr(model, "break_strain", None) is not None))
         self.dissipated = 0.0
         self.stepping = False
 
@@ -218,6 +219,10 @@ class Partition:
         if not self.force.linear:
             self.force.now = t
             self._internal(u, self.r)
+            if v is not None and self._viscous is not None:            # contact dashpots
+                power = self._viscous(v, self.r)
+                if self.track_dissipation and self.stepping:
+                    self.dissipated += self.dt * power
             if self.damping and v is not None:
                 self.force.tangent().mult(v, self.am_v)            # -K0 v
                 self.r.axpy(self.damping.beta, self.am_v)

@@ -180,7 +180,8 @@ def check(scene, spec, model, held, n_owned=None):
 
 def with_contact(fr: Frequency, model, mass) -> Frequency:
     """``fr`` raised for particle contact (model.lattice.contact): lambda_max of
-    the bonds plus 2 z k_n / m_min, z the largest coordination of spheres."""
+    the bonds plus 2 z k / m_min, z the largest coordination of spheres, k the
+    contact stiffness (hertz: its tangent at an overlap of 0.1 r)."""
     contact = getattr(model, "contact", None)
     if contact is None:
         return fr
@@ -189,7 +190,8 @@ def with_contact(fr: Frequency, model, mass) -> Frequency:
     m = m[np.isfinite(m) & (m > 0)]
     if not m.size:
         return fr
-    lam = fr.omega_max ** 2 + 2 * coordination(model.dof) * contact[1] / m.min()
+    from solver.partitions.contact import bound_stiffness
+    lam = fr.omega_max ** 2 + 2 * coordination(model.dof) * bound_stiffness(contact) / m.min()
     return Frequency(float(np.sqrt(lam)), fr.method + " + contact bound")
 
 

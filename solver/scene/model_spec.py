@@ -147,8 +147,16 @@ class Material:
 
 @dataclass(frozen=True)
 class ContactSpec:
-    stiffness: float = key("normal contact stiffness k_n [N/m] of two touching particles",
-                           positive=True)
+    stiffness: float = key("normal contact stiffness of two touching particles: k_n [N/m] "
+                           "(law linear, f = k_n d) or k_h [N/m^1.5] (law hertz, f = k_h d^1.5), "
+                           "d the overlap", positive=True)
+    law: Literal["linear", "hertz"] = key(
+        "linear: spring k_n d; hertz: k_h d^1.5 (the step bound takes its tangent at an "
+        "overlap of 0.1 x radius)", "linear")
+    damping_ratio: float = key(
+        "normal dashpot c = 2 zeta sqrt(k m*) of each contact (zeta this ratio, k the "
+        "contact's tangent stiffness, m* the pair's reduced mass): a spring-dashpot; its "
+        "dissipation enters the energy audit", 0.0, nonnegative=True)
     radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
                                "neighbours just touch at rest)", None, positive=True)
     skin: float | None = key("neighbour-list skin [m]: the k-d tree is rebuilt when a particle "
