@@ -336,7 +336,7 @@ def test_contact_laws_and_the_dashpot_on_two_particles(law):
     m = np.array([2e-6, 6e-6])
     unit = np.array([0.6, 0.8])
     x = np.array([[0.0, 0.0], (2 * r - d) * unit])
-    c = Contact(np.arange(2), (r, k, 0.3 * r, law, zeta), np.zeros(0, np.int64),
+    c = Contact(np.arange(2), (r, k, 0.3 * r, law, zeta, 0.0, 0.5), np.zeros(0, np.int64),
                 np.zeros(0, np.int64), m)
     out = np.zeros((2, 2))
     c.forces(x, np.zeros(0, bool), out, 2)
@@ -352,11 +352,34 @@ def test_contact_laws_and_the_dashpot_on_two_particles(law):
     assert abs(power / (cn * w ** 2) - 1) < 1e-12
 
 
+@pytest.mark.parametrize("speed, limited", [(0.5, False), (50.0, True)])
+def test_friction_opposes_sliding_up_to_the_coulomb_limit(speed, limited):
+    """Two pressed particles (overlap d, normal force k d) sliding past each
+    other at speed w: the tangential force opposes the sliding with magnitude
+    c_t w while below mu k d, and mu k d beyond it; its power is f_t w; no
+    normal component; equal and opposite."""
+    from solver.partitions.contact import Contact
+    r, k, d, mu, zt = 1e-3, 2e7, 1e-5, 0.3, 0.5
+    m = np.array([2e-6, 6e-6])
+    unit, tang = np.array([0.6, 0.8]), np.array([-0.8, 0.6])
+    x = np.array([[0.0, 0.0], (2 * r - d) * unit])
+    c = Contact(np.arange(2), (r, k, 0.3 * r, "linear", 0.0, mu, zt), np.zeros(0, np.int64),
+                np.zeros(0, np.int64), m)
+    c.forces(x, np.zeros(0, bool), np.zeros((2, 2)), 2)
+    out = np.zeros((2, 2))
+    power = c.viscous(np.array([[0.0, 0.0], speed * tang]), out, 2)
+    ct = 2 * zt * np.sqrt(k * m[0] * m[1] / m.sum())
+    ft = mu * k * d if limited else ct * speed
+    assert (ct * speed > mu * k * d) == limited
+    assert np.allclose(out[1], -ft * tang, rtol=1e-9) and np.allclose(out[0], -out[1])
+    assert abs(power / (ft * speed) - 1) < 1e-12
+
+
 def test_a_crack_closing_on_a_spring_dashpot_dissipates_and_the_audit_closes(tmp_path):
-    """The closing-crack scene with a dashpot ratio of 0.5: compression still
-    passes, the contacts dissipate energy, and kinetic + strain + released +
-    dissipated = work to 1e-3."""
-    res = crack({"stiffness": 1.68e7, "damping_ratio": 0.5}, tmp_path)
+    """The closing-crack scene with a dashpot ratio of 0.5 and friction 0.3:
+    compression still passes, the contacts dissipate energy, and kinetic +
+    strain + released + dissipated = work to 1e-3."""
+    res = crack({"stiffness": 1.68e7, "damping_ratio": 0.5, "friction": 0.3}, tmp_path)
     t, s = res.probes["C"]["t"], res.probes["C"]["stress"]
     assert s[t > 7.0e-5].min() < -0.8 * 1.0e4 / 3.2e-4
     e = res.energy

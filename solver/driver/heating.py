@@ -36,27 +36,42 @@ class Heating:
         laser = spec.laser
         spot = (f"; laser spot at {list(laser.centre)} radius {laser.radius:g} m absorbing "
                 f"{laser.absorptivity * laser.power_density * np.pi * laser.radius ** 2:.4g} W"
-                if laser else "")
+                if laser else "; no heat source (no heat.laser): the temperature stays at heat.initial")
         return (f"heat: conduction on {c.capacity.size} mesh nodes, thermal step {spec.step:g} s "
                 f"(explicit limit {c.critical:.4g} s) every {spec.every} system steps: heating "
                 f"runs {self.scale:.4g} x faster on the mechanical clock{spot}")
 
     def update(self, s: int):
-        """The temperatures for system step s -> s + 1 (at its midpoint)."""
+        """The temperatures for system step s -> s + 1 (at its midpoint).  The
+        first call (s > 0 after a restart) first sets step s - 1's temperatures,
+        so the rest lengths' work of this update counts as in an unbroken run."""
         th = self.heating_time((s + 0.5) * self.Dt)
+        first = self._last is None
+        if first:
+            for part in self.parts:                     # the thermal forces' work from here
+                part.track_thermal_work(count=False)
+            if s > 0:
+                self._set(self.heating_time((s - 0.5) * self.Dt), count=False)
         if th == self._last:
             return
-        c = self.conduction
-        steps = c.steps
-        self.T_node = c.node_temperature(c.at(th))
-        first = self._last is None
-        for part in self.parts:
-            part.set_temperature(self.T_node, count=not first)
-        self._last = th
-        if c.steps != steps or first:
+        steps = self.conduction.steps
+        self._set(th, count=not first or s > 0)
+        if self.conduction.steps != steps or first:
             self.series["t"].append(s * self.Dt)
             self.series["heating_time"].append(th)
             self.series["max_temperature"].append(float(self.T_node.max()))
+
+    def _set(self, th: float, count: bool):
+        c = self.conduction
+        self.T_node = c.node_temperature(c.at(th))
+        for part in self.parts:
+            part.set_temperature(self.T_node, count=count)
+        self._last = th
+
+    def after_step(self):
+        """After every system step: the thermal forces' work over it."""
+        for part in self.parts:
+            part.track_thermal_work()
 
     def arrays(self) -> dict:
         return {k: np.asarray(v) for k, v in self.series.items()}

@@ -321,6 +321,8 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
                 if heating is not None:
                     heating.update(s)
                 scheme.step(s * Dt)
+                if heating is not None:
+                    heating.after_step()
             except Exception as e:              # noqa: BLE001 -- stop together, keep the output
                 stop.fail(s + 1, describe(e))
             k = s + 1

@@ -40,7 +40,7 @@ class ContinuumArrays:
     material_D: np.ndarray = None  # elasticity matrix (Voigt), for stresses
     bond_geometry: str = "linear"  # lattice bonds: linear (small strain) or nonlinear
     break_strain: float = None     # lattice bonds break beyond this strain (nonlinear)
-    contact: tuple = None          # (radius, k, skin, law, damping ratio) of contact, or None
+    contact: tuple = None          # settings of model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
 
     @property
@@ -297,14 +297,14 @@ def _with_heat(arrays, scene, mesh, particles=None):
 
 
 def contact_of(lat):
-    """(radius, stiffness, skin, law, damping ratio) of ``model.lattice.contact``,
-    defaults filled, or None."""
+    """(radius, stiffness, skin, law, damping ratio, friction, tangential damping
+    ratio) of ``model.lattice.contact``, defaults filled, or None."""
     c = lat.contact
     if c is None:
         return None
     radius = c.radius if c.radius is not None else 0.5 * lat.spacing
     return (radius, c.stiffness, c.skin if c.skin is not None else 0.3 * radius, c.law,
-            c.damping_ratio)
+            c.damping_ratio, c.friction, c.tangential_damping_ratio)
 
 
 def _fixed(scene, mesh, n_nodes):

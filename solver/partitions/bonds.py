@@ -142,9 +142,9 @@ class BondForce:
             self.contact.forces(x, self.alive, out, n)
 
     def viscous(self, v_vec, out_vec) -> float:
-        """Add the contacts' dashpot forces at velocities ``v_vec`` (contacts of the
-        last :meth:`internal`); returns their dissipated power."""
-        if self.contact is None or not self.contact.zeta:
+        """Add the contacts' dashpot and friction forces at velocities ``v_vec``
+        (contacts of the last :meth:`internal`); returns their dissipated power."""
+        if self.contact is None or not self.contact.dissipative:
             return 0.0
         n = self.n_held
         v = v_vec.getArray(readonly=True)

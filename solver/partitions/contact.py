@@ -7,11 +7,14 @@ overlap d = 2r - |x_j - x_i|:
 - law hertz:  f = k_h d^1.5 (energy 2/5 k_h d^2.5), tangent 1.5 k_h d^0.5;
 - a normal dashpot (``damping_ratio`` zeta) adds c v_approach, c = 2 zeta
   sqrt(k m*) with k the tangent stiffness and m* the pair's reduced mass (a
-  spring-dashpot; its dissipation enters the energy audit).
+  spring-dashpot; its dissipation enters the energy audit);
+- friction (``friction`` mu): a tangential force against the sliding
+  velocity v_t of magnitude min(mu f_n, c_t |v_t|), c_t = 2 zeta_t sqrt(k m*):
+  Coulomb's limit with a viscous regularisation and no shear history (as
+  LAMMPS's gran/hooke); it only dissipates.
 A pair bonded at rest is never in contact while its bond lives; once the bond
 breaks, the two touch again only when pressed closer than 2r, so a crack
 that opens transmits nothing and a crack that closes transmits compression.
-There is no tangential friction.
 
 Candidate pairs come from a k-d tree (scipy's cKDTree) over the particles
 within 2r + skin, rebuilt only when some particle has moved more than half
@@ -32,7 +35,7 @@ def coordination(dim: int) -> int:
 
 def bound_stiffness(contact) -> float:
     """The contact stiffness the step bound uses, from (radius, k, skin, law, zeta)."""
-    radius, k, _, law, _ = contact
+    radius, k, law = contact[0], contact[1], contact[3]
     return 1.5 * k * np.sqrt(0.1 * radius) if law == "hertz" else k
 
 
@@ -46,7 +49,8 @@ class Contact:
 
     def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None):
         self.nodes = np.asarray(nodes, dtype=np.int64)
-        self.radius, self.kn, self.skin, self.law, self.zeta = settings
+        (self.radius, self.kn, self.skin, self.law, self.zeta, self.mu,
+         self.zeta_t) = settings
         n = int(max(self.nodes.max(initial=0), bonded_i.max(initial=0), bonded_j.max(initial=0))) + 1
         self._n = n
         self.mass = mass
@@ -113,20 +117,39 @@ class Contact:
         f, k, energy = self._law(overlap)
         self.energy = float(np.dot(energy, self._share(i, j)))
         unit = d / dist[:, None]
-        self._last = (i, j, unit, k)
+        self._last = (i, j, unit, k, f)
         _scatter(out, rows, i, j, f[:, None] * unit)
 
+    @property
+    def dissipative(self) -> bool:
+        return bool(self.zeta or self.mu)
+
     def viscous(self, v, out, rows) -> float:
-        """Add the dashpot forces of the contacts of the last :meth:`forces` at
-        velocities ``v`` to ``out``; returns their dissipated power [W]."""
-        if self._last is None or not self.zeta:
+        """Add the dashpot and friction forces of the contacts of the last
+        :meth:`forces` at velocities ``v`` to ``out``; returns their dissipated
+        power [W] (this piece's share)."""
+        if self._last is None or not self.dissipative:
             return 0.0
-        i, j, unit, k = self._last
+        i, j, unit, k, fn = self._last
         mi, mj = self.mass[i], self.mass[j]
-        c = 2 * self.zeta * np.sqrt(k * mi * mj / (mi + mj))
-        vn = np.einsum("pc,pc->p", v[j] - v[i], unit)          # separation rate
-        _scatter(out, rows, i, j, (-c * vn)[:, None] * unit)
-        return float(np.dot(c * vn ** 2, self._share(i, j)))
+        root = np.sqrt(k * mi * mj / (mi + mj))
+        dv = v[j] - v[i]
+        vn = np.einsum("pc,pc->p", dv, unit)                    # separation rate
+        force = np.zeros_like(dv)                               # on j
+        power = np.zeros(len(i))
+        if self.zeta:
+            c = 2 * self.zeta * root
+            force -= (c * vn)[:, None] * unit
+            power += c * vn ** 2
+        if self.mu:
+            vt = dv - vn[:, None] * unit                         # sliding velocity of j on i
+            speed = np.linalg.norm(vt, axis=1)
+            ft = np.minimum(self.mu * fn, 2 * self.zeta_t * root * speed)
+            slide = speed > 0
+            force[slide] -= (ft[slide] / speed[slide])[:, None] * vt[slide]
+            power += ft * speed
+        _scatter(out, rows, i, j, force)
+        return float(np.dot(power, self._share(i, j)))
 
 
 def _scatter(out, rows, i, j, f):

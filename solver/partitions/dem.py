@@ -63,9 +63,10 @@ class DemPartition(Partition):
         strain = (f", breaking beyond strain {model.break_strain:g}"
                   if model.break_strain is not None else "")
         if contact is not None:
-            radius, k, skin, law, zeta = contact
+            radius, k, skin, law, zeta, mu, _ = contact
             unit = "N/m^1.5" if law == "hertz" else "N/m"
-            dash = f", dashpot ratio {zeta:g}" if zeta else ""
+            dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \
+                (f", friction {mu:g}" if mu else "")
             strain += (f"; {law} contact of unbonded particles (radius {radius:g} m, stiffness "
                        f"{k:g} {unit}{dash}, k-d tree with skin {skin:g} m)")
         ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""

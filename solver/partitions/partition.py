@@ -248,11 +248,17 @@ class Partition:
 
     def set_temperature(self, T_node, count=True):
         """Model-node temperatures (``heat``): thermal forces, bond rest lengths and
-        strengths follow; their work goes into the external work."""
+        strengths follow; the rest lengths' work (the strain energy they change)
+        goes into the external work unless not ``count``."""
         if self.thermal is not None:
-            self.work += self.thermal.set_temperature(T_node, count)
+            self.thermal.set_temperature(T_node)
         if hasattr(self.force, "set_temperature"):
             self.work += self.force.set_temperature(T_node, count)
+
+    def track_thermal_work(self, count=True):
+        """After a system step: the thermal forces' work over it (external work)."""
+        if self.thermal is not None:
+            self.work += self.thermal.track(count)
 
     def _dissipate(self, v, scale):
         """dissipated += h scale v . am_v over the owned DOFs (the damping power

@@ -57,16 +57,19 @@ class ThermalForce:
         self._f = vec_on(self.force, P.COMM_SELF)
         self._u_last = part.U[:part.n_own].copy()
 
-    def set_temperature(self, T_node, count=True) -> float:
-        """f_th for the nodes' temperatures; returns the work the previous f_th did
-        since the last update (owned DOFs), 0 unless ``count``."""
+    def set_temperature(self, T_node):
+        """f_th = alpha G (T - T0) for the nodes' temperatures ``T_node``."""
+        np.subtract(T_node, self.spec.initial, out=self.dT)
+        self.G.mult(self._dT, self._f)
+        self.force *= self.spec.expansion
+
+    def track(self, count=True) -> float:
+        """The work of f_th over the owned DOFs' motion since the last call (0
+        unless ``count``: the first call after a start or restart)."""
         n = self.part.n_own
         u = self.part.U[:n]
         work = float(np.dot(self.force[:n], u - self._u_last)) if count else 0.0
         self._u_last[:] = u
-        np.subtract(T_node, self.spec.initial, out=self.dT)
-        self.G.mult(self._dT, self._f)
-        self.force *= self.spec.expansion
         return work
 
     def destroy(self):

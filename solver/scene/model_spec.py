@@ -157,6 +157,12 @@ class ContactSpec:
         "normal dashpot c = 2 zeta sqrt(k m*) of each contact (zeta this ratio, k the "
         "contact's tangent stiffness, m* the pair's reduced mass): a spring-dashpot; its "
         "dissipation enters the energy audit", 0.0, nonnegative=True)
+    friction: float = key(
+        "Coulomb friction coefficient mu (0: none): the tangential force opposes the "
+        "sliding velocity v_t with min(mu f_n, c_t |v_t|), c_t = 2 zeta_t sqrt(k m*), no "
+        "shear history (LAMMPS's gran/hooke); it dissipates", 0.0, nonnegative=True)
+    tangential_damping_ratio: float = key(
+        "zeta_t of the friction's viscous regularisation (friction > 0)", 0.5, positive=True)
     radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
                                "neighbours just touch at rest)", None, positive=True)
     skin: float | None = key("neighbour-list skin [m]: the k-d tree is rebuilt when a particle "
