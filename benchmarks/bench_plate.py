@@ -39,6 +39,7 @@ HEATING = 8.93             # seconds of heating every run covers (cracking start
 START, DT_SYS, STEP = 3.0e-4, 4 * 5.6e-8, 0.01
 SIGMA_FAR = 3.5e4 / 6.5e-4  # F_b / 4 over the thickness [Pa]
 SPACING = 8.0e-4
+WIDTH = 0.1
 
 
 def run(tmp: Path, every: int, ranks: int = 1) -> Path:
@@ -59,9 +60,10 @@ def run(tmp: Path, every: int, ranks: int = 1) -> Path:
 
 def crack_length(broken, times):
     """Length of the plate's width the broken bonds cover (columns of one
-    spacing holding a broken bond) at each time."""
-    return np.array([np.unique(np.floor(broken[broken[:, 0] <= t, 1] / SPACING)).size * SPACING
-                     for t in times])
+    spacing holding a broken bond; midpoints that moved past an edge count in
+    the edge column) at each time."""
+    col = np.floor(np.clip(broken[:, 1], 0.0, WIDTH - 1e-9) / SPACING)
+    return np.array([np.unique(col[broken[:, 0] <= t]).size * SPACING for t in times])
 
 
 def summary(path):
@@ -78,7 +80,7 @@ def summary(path):
         t_end = a["t_end"]
     first = b[0]
     t0 = first[0]
-    full = crack_length(b, b[:, 0]) >= 0.1 - 1e-9
+    full = crack_length(b, b[:, 0]) >= WIDTH - 1e-9
     cross = b[np.argmax(full), 0] - t0 if full.any() else np.nan
     audit = (e["kinetic"][-1] + e["strain"][-1] + released + e["dissipated"][-1]
              - e["external_work"][-1]) / e["external_work"][-1]
