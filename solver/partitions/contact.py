@@ -56,7 +56,9 @@ class Contact:
         self.mass = mass
         self.owned = np.iinfo(np.int64).max if owned is None else owned
         a, b = np.minimum(bonded_i, bonded_j), np.maximum(bonded_i, bonded_j)
-        self._bond_key = a * n + b                    # bond b's pair key (local indices)
+        key = a * n + b                               # bond b's pair key (local indices)
+        self._key_order = np.argsort(key, kind="stable")
+        self._sorted_keys = key[self._key_order]
         self._x_built = None
         self._pairs = np.zeros((0, 2), dtype=np.int64)
         self._last = None                             # (i, j, n, tangent k) of the last forces
@@ -68,6 +70,12 @@ class Contact:
         pts = x[self.nodes]
         pairs = cKDTree(pts).query_pairs(2 * self.radius + self.skin, output_type="ndarray")
         self._pairs = self.nodes[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
+        # each candidate pair's bond (-1: none), found once per build
+        i, j = self._pairs[:, 0], self._pairs[:, 1]
+        key = np.minimum(i, j) * self._n + np.maximum(i, j)
+        at = np.minimum(np.searchsorted(self._sorted_keys, key), max(len(self._sorted_keys) - 1, 0))
+        found = self._sorted_keys[at] == key if len(self._sorted_keys) else np.zeros(len(key), bool)
+        self._pair_bond = np.where(found, self._key_order[at] if len(self._key_order) else -1, -1)
         self._x_built = pts.copy()
         self.builds += 1
 
@@ -77,12 +85,13 @@ class Contact:
         i, j = self._pairs[:, 0], self._pairs[:, 1]
         at = (i == node) | (j == node) if node is not None else \
             (i < self.owned) | (j < self.owned)
-        i, j = i[at], j[at]
-        key = np.minimum(i, j) * self._n + np.maximum(i, j)
+        i, j, bond = i[at], j[at], self._pair_bond[at]
         d = x[j] - x[i]
         dist = np.linalg.norm(d, axis=1)
         overlap = 2 * self.radius - dist
-        touch = (overlap > 0) & ~np.isin(key, self._bond_key[alive]) & (dist > 0)
+        bonded = bond >= 0
+        bonded[bonded] = alive[bond[bonded]]                 # a live bond excludes the pair
+        touch = (overlap > 0) & ~bonded & (dist > 0)
         return i[touch], j[touch], d[touch], dist[touch], overlap[touch]
 
     def _law(self, overlap):
