@@ -73,6 +73,28 @@ def run_scene(raw: dict, tmp_path: Path, comm=None):
     return run(scene_mod.from_dict(raw), comm or MPI.COMM_SELF, log=lambda *a: None)
 
 
+def stop_and_restart(raw: dict, tmp_path: Path, end: float, stop: float, every: int,
+                     energy_every: int = 10, n: int | None = None, before=None):
+    """Run ``raw`` through the CLI to ``end`` in one go ("whole") and to ``stop``
+    ("short"), both with a checkpoint every ``every`` system steps, then restart
+    "short" to ``end`` (on ``n`` ranks); ``before(path)`` looks at the short
+    run's file before the restart.  Returns the paths of both outputs."""
+    for name, t in (("whole", end), ("short", stop)):
+        run = copy.deepcopy(raw)
+        run["name"], run["time"]["end"] = name, t
+        run["output"] = {"file": str(tmp_path / f"{name}.h5"), "checkpoint": {"every": every},
+                         "progress": 0, "energy_every": energy_every}
+        proc = run_cli([write_scene(tmp_path / f"{name}.yaml", run)], timeout=300)
+        assert proc.returncode == 0, proc.stderr
+    if before is not None:
+        before(tmp_path / "short.h5")
+    run["time"]["end"] = end
+    write_scene(tmp_path / "short.yaml", run)
+    proc = run_cli([tmp_path / "short.yaml", "--restart", tmp_path / "short.h5"], n=n, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return tmp_path / "whole.h5", tmp_path / "short.h5"
+
+
 @pytest.fixture
 def six_dof():
     return raw_scene("six_dof")

@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import raw_scene, refused, run_cli, run_scene, write_scene
+from conftest import raw_scene, refused, run_cli, run_scene, stop_and_restart, write_scene
 
 C = np.sqrt(70e9 / 2700.0)
 
@@ -185,25 +185,17 @@ def test_a_run_with_broken_bonds_restarts_to_the_same_breaks(tmp_path):
     """Checkpoints keep the broken bonds: a run stopped after the first breaks
     and continued to a later end breaks the same bonds at the same times and
     has the same histories, bitwise, as one run."""
+    raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
+                    damping__beta=0.0)
+    raw["loads"][0]["direction"] = [-1.0, 0.0]
+
+    def some_broke(path):
+        with h5py.File(path) as f:
+            assert 0 < len(f["broken_bonds"]) < 37                # some broke before the stop
     out = {}
-    for name, end in (("whole", 3.36e-5), ("short", 3.1724e-5)):   # 2400 and 2266 steps
-        raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
-                        damping__beta=0.0)
-        raw["loads"][0]["direction"] = [-1.0, 0.0]
-        raw["time"]["end"] = end
-        raw["name"] = name
-        raw["output"] = {"file": str(tmp_path / f"{name}.h5"), "checkpoint": {"every": 100},
-                         "progress": 0, "energy_every": 10}
-        write_scene(tmp_path / f"{name}.yaml", raw)
-        assert run_cli([tmp_path / f"{name}.yaml"]).returncode == 0
-    with h5py.File(tmp_path / "short.h5") as f:
-        assert 0 < len(f["broken_bonds"]) < 37                    # some broke before the stop
-    raw["time"]["end"] = 3.36e-5
-    write_scene(tmp_path / "short.yaml", raw)
-    proc = run_cli([tmp_path / "short.yaml", "--restart", tmp_path / "short.h5"])
-    assert proc.returncode == 0, proc.stderr
-    for name in ("whole", "short"):
-        with h5py.File(tmp_path / f"{name}.h5") as f:
+    for name, path in zip(("whole", "short"), stop_and_restart(
+            raw, tmp_path, 3.36e-5, 3.1724e-5, 100, before=some_broke)):   # 2400, 2266 steps
+        with h5py.File(path) as f:
             out[name] = (f["broken_bonds"][()], f["probes/B/displacement"][()],
                          f["partitions/dem"].attrs["bonds_broken"])
     assert np.array_equal(out["whole"][0], out["short"][0], equal_nan=True)

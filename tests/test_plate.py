@@ -6,7 +6,7 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from conftest import raw_scene, run_cli, write_scene
+from conftest import raw_scene, run_cli, stop_and_restart, write_scene
 
 SIGMA = 3.5e4 / 6.5e-4          # F_b / 4 over the thickness
 
@@ -90,24 +90,13 @@ def test_a_heated_run_restarts_to_the_same_crack_and_work(tmp_path):
     other rank count re-steps the heat to its checkpoint: the same bonds break
     at the same steps, the probe histories are bitwise those of one run on 1
     rank, and the external (thermal) work agrees to 1e-12."""
+    raw = raw_scene("plate_fracture")
+    raw["heat"]["laser"]["power_density"] = 1.0e7
+    raw["heat"]["every"] = 25
     out = {}
-    for name, end in (("whole", 5.9e-4), ("short", 4.6e-4)):
-        raw = raw_scene("plate_fracture")
-        raw["heat"]["laser"]["power_density"] = 1.0e7
-        raw["heat"]["every"] = 25
-        raw["time"]["end"] = end
-        raw["name"] = name
-        raw["output"] = {"file": str(tmp_path / f"{name}.h5"), "progress": 0,
-                         "energy_every": 50, "checkpoint": {"every": 1000}}
-        proc = run_cli([write_scene(tmp_path / f"{name}.yaml", raw)], timeout=300)
-        assert proc.returncode == 0, proc.stderr
-    raw["time"]["end"] = 5.9e-4
-    write_scene(tmp_path / "short.yaml", raw)
-    proc = run_cli([tmp_path / "short.yaml", "--restart", tmp_path / "short.h5"], n=2,
-                   timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    for name in ("whole", "short"):
-        with h5py.File(tmp_path / f"{name}.h5") as f:
+    for name, path in zip(("whole", "short"), stop_and_restart(
+            raw, tmp_path, 5.9e-4, 4.6e-4, 1000, energy_every=50, n=2)):
+        with h5py.File(path) as f:
             b = f["broken_bonds"][()]
             out[name] = (b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))],
                          f["probes/far/displacement"][()], f["probes/side/stress"][()],

@@ -13,7 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import ROOT, mpiexec, raw_scene, run_cli, write_scene
+from conftest import ROOT, mpiexec, raw_scene, run_cli, stop_and_restart, write_scene
 
 
 def scene(tmp_path, name, every=4000):
@@ -148,19 +148,9 @@ def test_transition_run_goes_on_with_a_later_end(tmp_path, motion):
     raw = raw_scene("wave_bar_transition")
     raw["coupling"]["band_motion"] = motion
     out = {}
-    for name, end in (("whole", 4.48e-5), ("short", 2.24e-5)):     # 800 and 400 system steps
-        raw["name"] = name
-        raw["time"]["end"] = end
-        raw["output"] = {"file": str(tmp_path / f"{name}.h5"), "checkpoint": {"every": 400},
-                         "progress": 0, "energy_every": 10}
-        write_scene(tmp_path / f"{name}.yaml", raw)
-        assert run_cli([tmp_path / f"{name}.yaml"]).returncode == 0
-    raw["time"]["end"] = 4.48e-5
-    write_scene(tmp_path / "short.yaml", raw)
-    proc = run_cli([tmp_path / "short.yaml", "--restart", tmp_path / "short.h5"])
-    assert proc.returncode == 0, proc.stderr
-    for name in ("whole", "short"):
-        with h5py.File(tmp_path / f"{name}.h5") as f:
+    for name, path in zip(("whole", "short"), stop_and_restart(
+            raw, tmp_path, 4.48e-5, 2.24e-5, 400)):                # 800 and 400 system steps
+        with h5py.File(path) as f:
             out[name] = [f[f"probes/{p}/{k}"][()] for p in "ABC" for k in ("displacement", "stress")]
             out[name].append(f["energy/total"][()])
     for a, b in zip(out["whole"], out["short"]):

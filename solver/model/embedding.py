@@ -129,3 +129,32 @@ def embedding(conn, family, cell, xi) -> Embedding:
     """The Embedding of particles in cells ``cell`` of ``conn`` at local ``xi``."""
     N, _ = FAMILIES[family].shape(xi)
     return Embedding(cell, conn[cell], N, xi)
+
+
+def flat_cells(cells: dict):
+    """All cells of ``cells`` as (family per cell, conn padded with the first node)."""
+    k = max(c.shape[1] for c in cells.values())
+    fams, conns = [], []
+    for fam, conn in cells.items():
+        fams += [fam] * len(conn)
+        conns.append(np.hstack([conn, np.repeat(conn[:, :1], k - conn.shape[1], axis=1)]))
+    return fams, np.concatenate(conns)
+
+
+def locate_in_cells(points, cells: dict, sites):
+    """(cell index over the concatenated families, weights [n, k_max]) of every
+    site; cell -1 where none holds it."""
+    k = max(c.shape[1] for c in cells.values())
+    cell = np.full(len(sites), -1, dtype=np.int64)
+    weights = np.zeros((len(sites), k))
+    offset = 0
+    for fam, conn in cells.items():
+        todo = np.flatnonzero(cell < 0)
+        c, xi = find(points, conn, fam, sites[todo])
+        hit = c >= 0
+        if hit.any():
+            emb = embedding(conn, fam, c[hit], xi[hit])
+            cell[todo[hit]] = offset + c[hit]
+            weights[todo[hit], :conn.shape[1]] = emb.weights
+        offset += len(conn)
+    return cell, weights

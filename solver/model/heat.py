@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.errors import SceneError
+from solver.model.embedding import Embedding, flat_cells, locate_in_cells
 
 
 @dataclass
@@ -30,7 +31,7 @@ class Conduction:
     data: np.ndarray
     capacity: np.ndarray        # [n_mesh] lumped rho c t integral N
     source: np.ndarray          # [n_mesh] absorbed laser power per node [W]
-    interp: tuple               # (rows, cols, weights): model node <- mesh nodes
+    particles: object           # Embedding of the model nodes after the mesh nodes, or None
     n_model: int
     critical: float             # 2 / lambda_max(C^-1 K)
 
@@ -84,8 +85,9 @@ class Conduction:
 
     def node_temperature(self, T_mesh: np.ndarray) -> np.ndarray:
         """One temperature per model node (particles interpolated) [n_model]."""
-        rows, cols, w = self.interp
-        return np.bincount(rows, w * T_mesh[cols], minlength=self.n_model)
+        if self.particles is None:
+            return T_mesh.copy()
+        return np.concatenate([T_mesh, self.particles.to_particles(T_mesh)])
 
     def destroy(self):
         if self._petsc is not None:
@@ -150,30 +152,23 @@ def build(scene, mesh, particles=None, n_model=None) -> Conduction:
                          f"{critical:.4g} s (2 / lambda_max of C^-1 K on this mesh); take "
                          f"heat.step <= {critical:.4g}")
     cap = np.where(used, cap, 1.0)                  # nodes of no cell keep T0
-    n_model = n if n_model is None else n_model
-    rows, cols, w = [np.arange(n)], [np.arange(n)], [np.ones(n)]
+    emb = None
     if particles is not None and len(particles):
-        from solver.model.transition import _find_in, _flat
-        cell, weights = _find_in(mesh.points, cells, particles)
+        cell, weights = locate_in_cells(mesh.points, cells, particles)
         lost = np.flatnonzero(cell < 0)
         if lost.size:
             raise SceneError(f"heat: particle at {particles[lost[0]].tolist()} lies in no cell of "
                              f"model.body {model.body!r}")
-        _, flat = _flat(cells)
-        k = weights.shape[1]
-        rows.append(np.repeat(n + np.arange(len(particles)), k))
-        cols.append(flat[cell].ravel())
-        w.append(weights.ravel())
-    return Conduction(spec, K.indptr, K.indices, K.data, cap, src,
-                      (np.concatenate(rows), np.concatenate(cols), np.concatenate(w)),
-                      n_model, critical)
+        _, flat = flat_cells(cells)
+        emb = Embedding(cell, flat[cell], weights, np.zeros((len(cell), mesh.dim)))
+    return Conduction(spec, K.indptr, K.indices, K.data, cap, src, emb,
+                      n if n_model is None else n_model, critical)
 
 
 def _check_on_body(mesh, cells, laser):
-    from solver.model.transition import _find_in
     centre = np.zeros((1, mesh.dim))
     centre[0, :2] = laser.centre
-    cell, _ = _find_in(mesh.points, cells, centre)
+    cell, _ = locate_in_cells(mesh.points, cells, centre)
     if cell[0] < 0:
         lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
         raise SceneError(f"heat.laser.centre: {list(laser.centre)} lies off the plate (model.body "

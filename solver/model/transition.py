@@ -30,7 +30,7 @@ import numpy as np
 
 from solver.errors import SceneError
 from solver.model.elements import FAMILIES
-from solver.model.embedding import Embedding, embedding, find
+from solver.model.embedding import Embedding, find, flat_cells, locate_in_cells
 from solver.model.lattice import cubic, merge, square
 
 
@@ -101,35 +101,6 @@ def _without(cells: dict, *others: dict) -> dict:
     return out
 
 
-def _flat(cells: dict):
-    """All cells of ``cells`` as (family per cell, conn padded with the first node)."""
-    k = max(c.shape[1] for c in cells.values())
-    fams, conns = [], []
-    for fam, conn in cells.items():
-        fams += [fam] * len(conn)
-        conns.append(np.hstack([conn, np.repeat(conn[:, :1], k - conn.shape[1], axis=1)]))
-    return fams, np.concatenate(conns)
-
-
-def _find_in(points, cells: dict, sites):
-    """(cell index over the concatenated families, weights [n, k_max]) of every
-    site; cell -1 where none holds it."""
-    k = max(c.shape[1] for c in cells.values())
-    cell = np.full(len(sites), -1, dtype=np.int64)
-    weights = np.zeros((len(sites), k))
-    offset = 0
-    for fam, conn in cells.items():
-        todo = np.flatnonzero(cell < 0)
-        c, xi = find(points, conn, fam, sites[todo])
-        hit = c >= 0
-        if hit.any():
-            emb = embedding(conn, fam, c[hit], xi[hit])
-            cell[todo[hit]] = offset + c[hit]
-            weights[todo[hit], :conn.shape[1]] = emb.weights
-        offset += len(conn)
-    return cell, weights
-
-
 def _empty_cells(points, cells: dict, assigned, particles) -> np.ndarray:
     """Band cells (indices over the families in order) with no particle inside
     or on their boundary (a particle on a shared face is assigned to one cell
@@ -184,10 +155,10 @@ def build(spec, mesh) -> Transition:
                 if dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
     except ValueError as e:
         raise SceneError(f"model.lattice: {e}") from None
-    band_cell, band_w = _find_in(pts, band.cells, grid.points)
+    band_cell, band_w = locate_in_cells(pts, band.cells, grid.points)
     in_region = np.zeros(len(grid.points), bool)
     todo = np.flatnonzero(band_cell < 0)
-    region_cell, _ = _find_in(pts, region.cells, grid.points[todo])
+    region_cell, _ = locate_in_cells(pts, region.cells, grid.points[todo])
     in_region[todo[region_cell >= 0]] = True
     kept = (band_cell >= 0) | in_region
     # lattice cells with every corner kept carry the bonds and the masses
@@ -215,7 +186,7 @@ def build(spec, mesh) -> Transition:
     model_id[core_ids] = n_mesh + np.arange(core_ids.size)
     band_no = np.full(len(grid.points), -1, dtype=np.int64)
     band_no[band_ids] = np.arange(band_ids.size)
-    _, flat_conn = _flat(band.cells)
+    _, flat_conn = flat_cells(band.cells)
     b_nodes = flat_conn[band_cell[band_ids]]                        # [n_band, k]
     b_w = band_w[band_ids]
     emb = Embedding(band_cell[band_ids], b_nodes, b_w, np.zeros((band_ids.size, dim)))

@@ -105,14 +105,19 @@ class BondForce:
             particles = np.where(loc >= 0, loc, held.size + np.searchsorted(ghosts, whole))
             mass = node_mass[np.concatenate([held, ghosts])]
             self.contact = Contact(particles, contact, self.i, self.j, mass, lay.n_owned)
+        if self.contact is None or not self.contact.dissipative:
+            self.viscous = None                  # the partition then makes no call per step
 
     # ---------------------------------------------------------------- state
     def _positions(self, u_vec):
-        U = u_vec.getArray(readonly=True)
+        """Positions X + u of the held and ghost particles (refreshing the ghosts:
+        collective), in a buffer the next call overwrites."""
+        x, X, n = self._x, self.X, self.n_held
+        np.add(X[:n], u_vec.getArray(readonly=True).reshape(n, self.dim), out=x[:n])
         if self._ghost is not None:
             self._ghost.scatter(u_vec, self._g_vec, *self._modes)
-            U = np.concatenate([U, self._g_arr])
-        return self.X + U.reshape(-1, self.dim)
+            np.add(X[n:], self._g_arr.reshape(-1, self.dim), out=x[n:])
+        return x
 
     def _bonds(self, u_vec):
         x = self._positions(u_vec)
@@ -124,11 +129,7 @@ class BondForce:
         """out = f_int(u); bonds beyond their critical strain break first (at
         ``now``).  The compiled loop (:mod:`solver.partitions.bond_kernel`)."""
         from solver.partitions.bond_kernel import bond_forces
-        x, X, n = self._x, self.X, self.n_held
-        np.add(X[:n], u_vec.getArray(readonly=True).reshape(n, self.dim), out=x[:n])
-        if self._ghost is not None:
-            self._ghost.scatter(u_vec, self._g_vec, *self._modes)
-            np.add(X[n:], self._g_arr.reshape(-1, self.dim), out=x[n:])
+        x, n = self._positions(u_vec), self.n_held
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
         out = out_vec.getArray().reshape(n, self.dim)
@@ -144,8 +145,6 @@ class BondForce:
     def viscous(self, v_vec, out_vec) -> float:
         """Add the contacts' dashpot and friction forces at velocities ``v_vec``
         (contacts of the last :meth:`internal`); returns their dissipated power."""
-        if self.contact is None or not self.contact.dissipative:
-            return 0.0
         n = self.n_held
         v = v_vec.getArray(readonly=True)
         if self._ghost is not None:                  # the ghosts' velocities, like their u
