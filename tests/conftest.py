@@ -98,3 +98,16 @@ def stop_and_restart(raw: dict, tmp_path: Path, end: float, stop: float, every: 
 @pytest.fixture
 def six_dof():
     return raw_scene("six_dof")
+
+
+def built(raw, tmp_path):
+    """The Assembly (solver.driver.build) of raw scene data on this process."""
+    from mpi4py import MPI
+
+    from solver import scene as scene_mod
+    from solver.driver.build import build
+    from solver.model import binding
+    from solver.petscutil import init
+    init([])
+    raw = dict(raw, output={"file": str(tmp_path / "b.h5")})
+    return build(binding.bind(scene_mod.from_dict(raw)), MPI.COMM_SELF)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import raw_scene, refused, run_cli, run_scene, write_scene
+from conftest import built, raw_scene, refused, run_cli, run_scene, write_scene
 
 E, NU, RHO, T = 70e9, 0.33, 2700.0, 3.2e-4
 L, H = 0.32, 0.0024
@@ -157,18 +157,6 @@ def short_bar(ratio, dt, beta_r, newmark_beta=0.0):
     raw.update(time={"end": 1e-6, "dt": dt}, guard={"stable_step": False}, reference="none",
                probes=[], loads=[], damping={"beta": beta_r})
     return raw
-
-
-def built(raw, tmp_path):
-    from mpi4py import MPI
-
-    from solver import scene as scene_mod
-    from solver.driver.build import build
-    from solver.model import binding
-    from solver.petscutil import init
-    init([])
-    raw = dict(raw, output={"file": str(tmp_path / "b.h5")})
-    return build(binding.bind(scene_mod.from_dict(raw)), MPI.COMM_SELF)
 
 
 def test_ratio_one_is_the_monolithic_central_difference(tmp_path):

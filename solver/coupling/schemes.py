@@ -17,6 +17,9 @@ SUPPORT = {
                  "or dem+verlet; any number of ranks; external (of the explicit side): taylor, "
                  "layers, literal",
     "gc": "exactly two partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank",
+    "conserving": "exactly two partitions on a node-matching interface: fem+implicit (average "
+                  "acceleration) with the largest ratio and fem+explicit, linear, loads on the "
+                  "implicit one; 1 rank",
     "transition": "continuum models with model.lattice.transition: one fem+explicit partition "
                   "with the largest ratio (the FE step) and one dem+verlet partition; any number "
                   "of ranks; external: taylor",
@@ -26,5 +29,6 @@ SUPPORT = {
 def scheme_class(name: str):
     from solver.coupling.system_step import ConcurrentOverlap, Staggered, TransitionZone
     from solver.coupling.gc import GravouilCombescure
-    return {"overlap": ConcurrentOverlap, "staggered": Staggered,
-            "gc": GravouilCombescure, "transition": TransitionZone}[name]
+    from solver.coupling.conserving import Conserving
+    return {"overlap": ConcurrentOverlap, "staggered": Staggered, "gc": GravouilCombescure,
+            "conserving": Conserving, "transition": TransitionZone}[name]

@@ -71,11 +71,13 @@ class Partition:
 
 @dataclass(frozen=True)
 class Coupling:
-    scheme: Literal["overlap", "staggered", "gc", "transition"] = key(
+    scheme: Literal["overlap", "staggered", "gc", "conserving", "transition"] = key(
         "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
         "state and exchange once per system step; staggered: seed 002, the explicit partition "
         "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
         "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank); "
+        "conserving: energy-conserving multi-time-step coupling of an explicit fem partition "
+        "and an implicit one at any ratio (stable by construction; docs/conserving.md, 1 rank); "
         "transition: seed 003, needs model.lattice.transition: the dem partition sub-cycles "
         "over the band's motion, then the explicit fem partition steps with the particles' "
         "forces", "overlap")
@@ -328,7 +330,7 @@ class Scene:
             if part.name in names:
                 fail(f"partitions[{p}].name", f"duplicate partition name {part.name!r}")
             names.add(part.name)
-        if self.coupling.scheme in ("staggered", "gc"):
+        if self.coupling.scheme in ("staggered", "gc", "conserving"):
             self._check_staggered()
         if self.coupling.band_motion != "predictor" and self.coupling.scheme != "transition":
             fail("coupling.band_motion", f"{self.coupling.band_motion}: only the transition "
@@ -405,4 +407,17 @@ class Scene:
         if scheme == "gc" and (other.method, other.integrator) != ("fem", "explicit"):
             fail("coupling.scheme", f"gc: the fine partition '{other.name}' must be fem with "
                  "integrator explicit")
+        if scheme == "conserving":
+            coarse = implicit[0]
+            if (other.method, other.integrator) != ("fem", "explicit") or coarse.method != "fem":
+                fail("coupling.scheme", f"conserving: partitions '{other.name}' and "
+                     f"'{coarse.name}' must be fem with integrators explicit and implicit")
+            if (coarse.beta, coarse.gamma) != (0.25, 0.5):
+                fail(f"partitions[{parts.index(coarse)}].beta", f"conserving: the implicit "
+                     f"partition '{coarse.name}' must be average acceleration (beta 0.25, "
+                     f"gamma 0.5), not beta {coarse.beta:g}, gamma {coarse.gamma:g}")
+            if (other.beta, other.gamma) != (0.0, 0.5):
+                fail(f"partitions[{parts.index(other)}].beta", f"conserving: the explicit "
+                     f"partition '{other.name}' must be central difference (beta 0, gamma 0.5), "
+                     f"not beta {other.beta:g}, gamma {other.gamma:g}")
 
