@@ -1,10 +1,11 @@
 """coupling.scheme conserving: the energy-conserving multi-time-step coupling
 (solver/coupling/conserving.py, docs/conserving.md) on a 40-mass chain, seed
 002's five-node chain and the FE wave_bar, against GC and the staggered scheme."""
+import h5py
 import numpy as np
 import pytest
 
-from conftest import built, raw_scene, refused, run_cli, run_scene, write_scene
+from conftest import built, raw_scene, refused, run_cli, run_scene, stop_and_restart, write_scene
 
 N, SPLIT = 40, 20
 
@@ -135,7 +136,7 @@ def test_bad_layouts_are_refused(scene, sets, key, tmp_path):
     assert f".yaml: {key}: " in line, line
 
 
-def test_loads_on_the_fine_side_and_two_ranks_are_refused(tmp_path):
+def test_loads_on_the_fine_side_and_three_ranks_are_refused(tmp_path):
     raw = chain(4)
     raw["loads"] = [{"node": 3, "kind": "half_sine", "amplitude": 1.0, "duration": 1.0}]
     raw["reference"] = "none"
@@ -146,6 +147,56 @@ def test_loads_on_the_fine_side_and_two_ranks_are_refused(tmp_path):
     assert line.startswith("error: loads: node 3 is in the fine partition 'fine'"), line
     raw = chain(4)
     raw["output"] = {"file": str(tmp_path / "o.h5")}
-    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)], n=2)
-    assert proc.returncode == 4 and "conserving runs on 1 rank" in proc.stderr
+    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)], n=3)
+    line, = proc.stderr.strip().splitlines()
+    assert proc.returncode == 4 and "conserving runs on 1 or 2 ranks" in line, proc.stderr
     assert not (tmp_path / "o.h5").exists()
+
+
+def histories(path):
+    with h5py.File(path) as f:
+        return {k: f[f"probes/{k}/displacement"][()] for k in f["probes"]}, f.attrs["ranks"]
+
+
+@pytest.mark.parametrize("scene, sets", [
+    ("chain", []),
+    ("wave_bar_mts", ["time.end=1.6e-5", "partitions.coarse.ratio=10"]),
+    ("wave_bar_mts", ["time.end=1.6e-5", "partitions.coarse.ratio=10", "partitions.0.ranks=1",
+                      "partitions.1.ranks=1"]),
+])
+def test_two_ranks_match_one_rank(scene, sets, tmp_path):
+    """Each side on its own rank (one allreduce per system step) gives the
+    one-rank run to 1e-10 of the largest displacement; on the chain the two
+    sides are swapped in the partition list too."""
+    raw = chain(8, end=60.0) if scene == "chain" else raw_scene(scene)
+    if scene == "chain":
+        raw["partitions"].reverse()
+    out = {}
+    for n in (1, 2):
+        raw["output"] = {"file": str(tmp_path / f"n{n}.h5")}
+        proc = run_cli([write_scene(tmp_path / f"s{n}.yaml", raw), *sum((["--set", x] for x in sets), [])],
+                       n=n if n > 1 else None, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        out[n] = histories(tmp_path / f"n{n}.h5")
+        assert out[n][1] == n
+    scale = max(np.abs(h).max() for h in out[1][0].values())
+    assert scale > 0
+    for k, one in out[1][0].items():
+        assert np.abs(one - out[2][0][k]).max() <= 1e-10 * scale, k
+
+
+def test_restart_on_two_ranks_continues_the_run(tmp_path):
+    """A run stopped at t = 30 s (a load on the interface node still acting) and
+    restarted on 2 ranks ends where the uninterrupted 1-rank run ends: the
+    interface force is recovered from the coarse side's state and loads at the
+    restart time."""
+    raw = chain(4, end=60.0)
+    raw["loads"] = [{"node": SPLIT, "kind": "half_sine", "amplitude": 0.5, "duration": 50.0}]
+    raw["reference"] = "none"
+    whole, short = stop_and_restart(raw, tmp_path, 60.0, 30.0, 10, n=2)
+    with h5py.File(whole) as a, h5py.File(short) as b:
+        assert b.attrs["ranks"] == 2 and b.attrs["status"] == "completed"
+        for k in ("u5", "u20", "u30"):
+            x, y = a[f"probes/{k}/displacement"][()], b[f"probes/{k}/displacement"][()]
+            assert x.shape == y.shape and np.abs(x).max() > 0.1
+            assert np.abs(x - y).max() <= 1e-10 * np.abs(x).max(), k

@@ -36,7 +36,7 @@ import numpy as np
 
 from solver.coupling.overlap import Layout
 from solver.coupling.system_step import _Clocks
-from solver.errors import LaunchError, SceneError, StabilityError
+from solver.errors import LaunchError, SceneError, SolverError, StabilityError
 from solver.partitions import stability
 from solver.partitions.fem import FemPartition
 from solver.petscutil import init
@@ -66,22 +66,19 @@ class SideModel:
         return self.stiffness_blocks(held)
 
 
-def split(scene, mdl):
-    """(fine index, coarse index, interface nodes, fine model, coarse model)."""
+def interface(scene, mdl):
+    """(fine index, coarse index, interface nodes) from the whole model's node
+    graph, with the scheme's refusals (rank 0)."""
     parts = scene.partitions
-    c = max(range(2), key=lambda k: (parts[k].integrator == "implicit", parts[k].ratio))
-    f = 1 - c
+    f, c = sides(scene)
     n = mdl.n_nodes
-    fine = np.zeros(n + 1, bool)                      # slot -1: springs to the ground
-    fine[np.asarray(parts[f].nodes, dtype=np.int64)] = True
+    fine = fine_mask(scene, n, f)
     indptr, col = mdl.graph()
     row = np.repeat(np.arange(n), np.diff(indptr))
     iface = np.unique(col[fine[row] & ~fine[col]])
     if not iface.size:
         raise SceneError(f"coupling.scheme: conserving: partitions '{parts[f].name}' and "
                          f"'{parts[c].name}' share no element (no interface)")
-    on_iface = np.zeros(n + 1, bool)
-    on_iface[iface] = True
     loaded = [int(mdl.dofmap.node_of(ld.dof)[0]) for ld in mdl.loads]
     bad = [k for k in loaded if fine[k]]
     if bad:
@@ -89,12 +86,40 @@ def split(scene, mdl):
                          "coupling.scheme conserving takes loads on the coarse partition only")
     if getattr(mdl, "heat", None) is not None:
         raise SceneError("heat: coupling.scheme conserving couples linear partitions without heat")
+    if getattr(mdl, "bond_geometry", "linear") != "linear":
+        raise SceneError("model.lattice: coupling.scheme conserving needs linear partitions")
+    return f, c, iface
+
+
+def sides(scene):
+    """(fine index, coarse index): the coarse side is the implicit partition
+    with the largest ratio."""
+    parts = scene.partitions
+    c = max(range(2), key=lambda k: (parts[k].integrator == "implicit", parts[k].ratio))
+    return 1 - c, c
+
+
+def fine_mask(scene, n_nodes, f):
+    fine = np.zeros(n_nodes + 1, bool)                # slot -1: springs to the ground
+    fine[np.asarray(scene.partitions[f].nodes, dtype=np.int64)] = True
+    return fine
+
+
+def side_model(scene, mdl, f, k):
+    """Partition ``k``'s view of ``mdl``: the fine side takes every element with
+    a fine node, the coarse side the rest and the loads."""
+    fine = fine_mask(scene, mdl.n_nodes, f)
 
     def on_fine(conn):
         return fine[conn].any(axis=1)
-    m_fine = SideModel(mdl, on_fine, ())
-    m_coarse = SideModel(mdl, lambda conn: ~on_fine(conn), mdl.loads)
-    return f, c, iface, m_fine, m_coarse
+    if k == f:
+        return SideModel(mdl, on_fine, ())
+    return SideModel(mdl, lambda conn: ~on_fine(conn), mdl.loads)
+
+
+def held_nodes(scene, k, f, iface):
+    owned = np.unique(np.asarray(scene.partitions[k].nodes, dtype=np.int64))
+    return owned, (np.concatenate([owned, iface]) if k == f else owned)
 
 
 class Conserving:
@@ -107,68 +132,114 @@ class Conserving:
 
     @classmethod
     def build(cls, scene, model, comm, say):
-        if comm.size != 1:
-            raise LaunchError("coupling.scheme conserving runs on 1 rank")
-        scheme = cls(scene, model)
-        scheme.layouts, scheme.model = [p.layout for p in scheme.parts], model
+        if comm.size > 2:
+            raise LaunchError(f"coupling.scheme conserving runs on 1 or 2 ranks (one per side), "
+                              f"not {comm.size}")
+        for k, p in enumerate(scene.partitions):
+            if p.ranks is not None and p.ranks != 1:
+                raise LaunchError(f"partitions[{k}].ranks: coupling.scheme conserving runs each "
+                                  "side on one rank")
+        scheme = cls(scene, model, comm)
+        scheme.layouts = [scheme.layout(k) for k in range(2)]
         return scheme
 
-    def __init__(self, scene, mdl):
+    def __init__(self, scene, mdl, comm):
+        """Rank 0 (the whole model) finds the interface; on 2 ranks partition k
+        runs on rank k and rank 1 gets only its side's share of the model."""
         P = init()
-        f, c, iface, m_fine, m_coarse = split(scene, mdl)
+        from solver.partitions.partitioning import agree
+        self.comm = comm
+        found, error = None, None
+        if comm.rank == 0:
+            try:
+                found = interface(scene, mdl)
+            except SceneError as e:
+                error = e
+        if comm.size > 1:
+            error = comm.bcast(error)
+        if error is not None:
+            raise error
+        f, c, iface = comm.bcast(found) if comm.size > 1 else found
+        self.f, self.c, self.iface, self._scene = f, c, iface, scene
+        local = [f, c] if comm.size == 1 else [comm.rank]
+        if comm.size > 1:
+            share = None
+            if comm.rank == 0:
+                share = mdl.share(held_nodes(scene, 1, f, iface)[1])
+                comm.send(share, dest=1)
+            else:
+                mdl = comm.recv(source=0)
+        self.model = mdl
         specs = scene.partitions
-        if getattr(mdl, "bond_geometry", "linear") != "linear":
-            raise SceneError("model.lattice: coupling.scheme conserving needs linear partitions")
-        owned_f = np.unique(np.asarray(specs[f].nodes, dtype=np.int64))
-        owned_c = np.unique(np.asarray(specs[c].nodes, dtype=np.int64))
-        empty = np.zeros(0, dtype=np.int64)
-        lay_f = Layout(specs[f].name, f, owned_f, empty, owned_f, (iface,),
-                       np.full(iface.size, c, dtype=np.int64))
-        lay_c = Layout(specs[c].name, c, owned_c, empty, owned_c, (), empty)
-        self.freqs = {}
-        for spec, m, lay in ((specs[f], m_fine, lay_f), (specs[c], m_coarse, lay_c)):
-            fr, crit, problem = stability.check(scene, spec, m, lay.held)
-            self.freqs[spec.name] = (fr, crit)
-            if problem:
-                raise StabilityError(f"{problem} (conserving scheme: the fine side with its "
-                                     "interface nodes at full mass)")
         R, dt = scene.system_ratio, scene.time.dt
-        self.F = FemPartition(specs[f], lay_f, m_fine, P.COMM_SELF, "taylor", dt, R, scene.damping)
-        self.C = FemPartition(specs[c], lay_c, m_coarse, P.COMM_SELF, "literal", dt, R,
-                              scene.damping)
-        for part in (self.F, self.C):
-            if self.freqs[part.name][0] is None:          # too large for the dense check
-                fr, crit, problem = stability.assembled(scene, part)
-                self.freqs[part.name] = (fr, crit)
+        self.freqs, built, error = {}, {}, None
+        try:
+            for k in local:
+                m = side_model(scene, mdl, f, k)
+                lay = self.layout(k)
+                fr, crit, problem = stability.check(scene, specs[k], m, lay.held)
                 if problem:
-                    raise StabilityError(f"{problem} (conserving scheme)")
-        self.parts = [self.F, self.C] if f == 0 else [self.C, self.F]
-        self.models = {self.F.name: m_fine, self.C.name: m_coarse}
-        self.m = self.F.n_sub
-        self.iface = iface
-        F, C = self.F, self.C
+                    raise StabilityError(f"{problem} (conserving scheme: the fine side with its "
+                                         "interface nodes at full mass)")
+                part = FemPartition(specs[k], lay, m, P.COMM_SELF, "taylor" if k == f else "literal",
+                                    dt, R, scene.damping)
+                if fr is None:                            # too large for the dense check
+                    fr, crit, problem = stability.assembled(scene, part)
+                    if problem:
+                        raise StabilityError(f"{problem} (conserving scheme)")
+                self.freqs[specs[k].name] = (fr, crit)
+                built[k] = (part, m)
+        except SolverError as e:
+            error = e
+        agree(comm, error)
+        if comm.size > 1:
+            for chunk in comm.allgather(self.freqs):
+                self.freqs.update(chunk)
+        self.parts = [built[k][0] for k in sorted(built)]
+        self.models = {built[k][0].name: built[k][1] for k in built}
+        self.F = built[f][0] if f in built else None
+        self.C = built[c][0] if c in built else None
+        self.m = scene.system_ratio // specs[f].ratio
+        self.T = specs[c].ratio * dt
+        self.h = specs[f].ratio * dt
+        # interface DOFs: the free DOFs of the interface nodes, as rows of F
+        # (externals) and of C
         dm = mdl.dofmap
-        # interface DOFs: free DOFs of the interface nodes, as rows of F (externals) and C
-        rows_f = F.starts[F.layout.local(iface)][:, None] + np.arange(dm.counts[iface].max())
-        rows_c = C.starts[C.layout.local(iface)][:, None] + np.arange(dm.counts[iface].max())
-        ok = (np.arange(rows_f.shape[1])[None, :] < dm.counts[iface][:, None])
-        rows_f, rows_c = rows_f[ok], rows_c[ok]
-        free = ~C.fixed_dofs[rows_c]
-        self.rf, self.rc = rows_f[free], rows_c[free]
-        if F.damping:
-            F._am[F.n_own:] = 0.0                      # interface inertia is the coarse side's
-        F.energies = self._fine_energies
-        self._solve_buffers(P)
+        gd = dm.dofs(iface)
+        gd = gd[~mdl.fixed[gd]]
+        self.n = gd.size
+        self.rf = self._rows(self.F, gd)
+        self.rc = self._rows(self.C, gd)
+        if self.F is not None:
+            if self.F.damping:
+                self.F._am[self.F.n_own:] = 0.0           # interface inertia is the coarse side's
+            self.F.energies = self._fine_energies
+            self.r0 = np.zeros(self.n)
+        if self.C is not None:
+            self.G0 = np.zeros(self.n)
         self._set_up(P)
-        self.clocks = _Clocks(self.parts)
-        self.G0 = np.zeros(self.rc.size)
-        self.r0 = np.zeros(self.rc.size)
+        self.clocks = _Clocks(self.parts, [p.name for p in specs], comm)
+
+    def layout(self, k):
+        owned = held_nodes(self._scene, k, self.f, self.iface)[0]
+        empty = np.zeros(0, dtype=np.int64)
+        if k == self.f:
+            return Layout(self._scene.partitions[k].name, k, owned, empty, owned, (self.iface,),
+                          np.full(self.iface.size, self.c, dtype=np.int64))
+        return Layout(self._scene.partitions[k].name, k, owned, empty, owned, (), empty)
+
+    @staticmethod
+    def _rows(part, gdofs):
+        if part is None:
+            return None
+        where = {int(g): i for i, g in enumerate(part.held_dofs)}
+        return np.array([where[int(g)] for g in gdofs], dtype=np.int64)
+
+    def _owner(self, k):
+        """The rank of partition k."""
+        return 0 if self.comm.size == 1 else k
 
     # ---------------------------------------------------------------- set-up
-    def _solve_buffers(self, P):
-        n = self.C.n_own
-        self._rhs, self._sol = P.Vec().createSeq(n), P.Vec().createSeq(n)
-
     def _coarse_solve(self, forces):
         """K_eff^-1 E_I forces (the coarse side's acceleration per interface force)."""
         self._rhs.set(0.0)
@@ -196,43 +267,73 @@ class Conserving:
 
     def _set_up(self, P):
         """Responses to a unit interface velocity: the fine side's state S and
-        reactions (Rbar mean, Rm last); the coarse X_II; Z factored."""
-        F, C, n = self.F, self.C, self.rc.size
-        saved = F.state.copy()
-        cols, Rbar, Rm = [], np.zeros((n, n)), np.zeros((n, n))
-        self.r0 = np.zeros(n)
-        for k in range(n):
-            F.state[...] = 0.0
-            V = np.zeros(n)
-            V[k] = 1.0
-            Rbar[:, k], Rm[:, k] = self._fine_pass(0.0, V, loads=False)
-            cols.append(F.state.reshape(-1).copy())
-        F.state[...] = saved
-        S = np.array(cols).T
-        self.S_rows = np.flatnonzero(np.abs(S).max(axis=1) > 0) if n else np.zeros(0, int)
-        self.S = S[self.S_rows]
-        self.Rbar, self.Rm = Rbar, Rm
-        X = np.array([self._coarse_solve(e)[self.rc] for e in np.eye(n)]).T
-        b, T = self.C.integrator.beta, self.C.dt
-        self.c_link = 2.0 * b * T * T
-        self.X_II = X
-        Z = T * np.eye(n) + self.c_link * X @ Rbar
-        self.Z = P.Mat().createDense((n, n), array=Z.copy(), comm=P.COMM_SELF)
-        self.Z.assemble()
-        ksp = P.KSP().create(P.COMM_SELF)
-        ksp.setOperators(self.Z)
-        ksp.setType("preonly")
-        ksp.getPC().setType("lu")
-        ksp.setUp()
-        self.zksp = ksp
-        self._b, self._V = self.Z.createVecs()
+        reactions (Rbar mean, Rm last) on the fine rank, the coarse X_II on the
+        coarse rank; both replicated, Z factored on every rank."""
+        n, F, C = self.n, self.F, self.C
+        Rbar, X = np.zeros((n, n)), np.zeros((n, n))
+        if F is not None:
+            saved = F.state.copy()
+            cols, self.Rm = [], np.zeros((n, n))
+            for k in range(n):
+                F.state[...] = 0.0
+                V = np.zeros(n)
+                V[k] = 1.0
+                Rbar[:, k], self.Rm[:, k] = self._fine_pass(0.0, V, loads=False)
+                reached = np.flatnonzero(F.state.reshape(-1))
+                cols.append((reached, F.state.reshape(-1)[reached]))
+            F.state[...] = saved
+            self.S = self._response(cols, F.state.size, P)
+            self._Vf = np.zeros(n)
+            self._link = (P.Vec().createWithArray(self._Vf, comm=P.COMM_SELF),
+                          P.Vec().createWithArray(F.state.reshape(-1), comm=P.COMM_SELF))
+        if C is not None:
+            self._rhs, self._sol = P.Vec().createSeq(C.n_own), P.Vec().createSeq(C.n_own)
+            for k in range(n):
+                e = np.zeros(n)
+                e[k] = 1.0
+                X[:, k] = self._coarse_solve(e)[self.rc]
+        if self.comm.size > 1:
+            self.comm.Bcast(Rbar, root=self._owner(self.f))
+            self.comm.Bcast(X, root=self._owner(self.c))
+        self.Rbar, self.X_II = Rbar, X
+        self.c_link = 2.0 * self._scene.partitions[self.c].beta * self.T ** 2
+        self._buf = np.zeros(2 * n)
+        self.zksp = None
+        if n:
+            Z = self.T * np.eye(n) + self.c_link * X @ Rbar
+            self.Z = P.Mat().createDense((n, n), array=Z, comm=P.COMM_SELF)
+            self.Z.assemble()
+            ksp = P.KSP().create(P.COMM_SELF)
+            ksp.setOperators(self.Z)
+            ksp.setType("preonly")
+            ksp.getPC().setType("lu")
+            ksp.setUp()
+            self.zksp = ksp
+            self._b, self._V = self.Z.createVecs()
+
+    @staticmethod
+    def _response(cols, size, P):
+        """The fine state's response to V as a sparse PETSc matrix (rows: the
+        fine state's entries, columns: the interface DOFs)."""
+        rows = np.concatenate([r for r, _ in cols]) if cols else np.zeros(0, np.int64)
+        vals = np.concatenate([v for _, v in cols]) if cols else np.zeros(0)
+        cidx = np.concatenate([np.full(r.size, k) for k, (r, _) in enumerate(cols)]) \
+            if cols else np.zeros(0, np.int64)
+        S = P.Mat().createAIJ((size, len(cols)), comm=P.COMM_SELF)
+        S.setPreallocationCOO(rows.astype(P.IntType), cidx.astype(P.IntType))
+        S.setValuesCOO(vals)
+        S.assemble()
+        return S
 
     def describe(self) -> str:
+        specs = self._scene.partitions
         return (f"energy-conserving multi-time-step coupling: {self.iface.size} interface node(s) "
-                f"{self.iface.tolist()[:6]}, fine '{self.F.name}' on the coarse side's straight "
-                f"interface path, coarse '{self.C.name}' with the fine reactions' trapezoidal "
-                f"mean; {self.rc.size}x{self.rc.size} interface system factored once; "
-                f"stable by construction at any ratio (here {self.m})")
+                f"{self.iface.tolist()[:6]}, fine '{specs[self.f].name}' on the coarse side's "
+                f"straight interface path, coarse '{specs[self.c].name}' with the fine reactions' "
+                f"trapezoidal mean; {self.n}x{self.n} interface system factored once"
+                + (", one allreduce of 2 x {self.n} values per system step".format(self=self)
+                   if self.comm.size > 1 else "")
+                + f"; stable by construction at any ratio (here {self.m})")
 
     def _fine_energies(self):
         """The fine side's energies with the strain energy of its elements on the
@@ -244,58 +345,97 @@ class Conserving:
 
     # -------------------------------------------------------------- stepping
     def initialise(self, model):
-        self.F.initialise(self.models[self.F.name])
-        self.C.initialise(self.models[self.C.name])
-        self._reactions()
-        self.G0 = -self.r0                              # consistent initial acceleration
-        self.C.A[self.rc] += self.G0 * self.C._minv[self.rc]
+        """Initial states; the coarse interface's initial acceleration takes the
+        fine side's reaction (G_0 = -r_0)."""
+        for part in self.parts:
+            part.initialise(self.models[part.name])
+        if self.F is not None:
+            self._reaction()
+        r0 = self.r0 if self.F is not None else np.zeros(self.n)
+        if self.comm.size > 1:
+            self.comm.Bcast(r0, root=self._owner(self.f))
+        if self.C is not None:
+            self.G0 = -r0
+            self.C.A[self.rc] += self.G0 * self.C._minv[self.rc]
 
-    def _reactions(self):
+    def _reaction(self):
         F = self.F
-        F.U[self.rf] = self.C.U[self.rc]
-        F.V[self.rf] = self.C.V[self.rc]
         F._internal(F.u, F.r)
         self.r0 = -F.R[self.rf]
 
     def synchronise(self):
         """The interface state from the coarse side (restarts, the step-matrix
-        analysis): fine interface rows, the fine reaction and the coarse side's
-        interface force implied by its acceleration."""
+        analysis): the fine side's interface rows and reaction, and the coarse
+        side's interface force implied by its acceleration at its time."""
         C = self.C
-        self._reactions()
-        C.residual(0.0, C.u, C.v)
-        self.G0 = C.mass[self.rc] * C.A[self.rc] - C.R[self.rc]
+        uv = np.zeros((2, self.n))
+        if C is not None:
+            uv[:] = C.U[self.rc], C.V[self.rc]
+        if self.comm.size > 1:
+            self.comm.Bcast(uv, root=self._owner(self.c))
+        if self.F is not None:
+            self.F.U[self.rf], self.F.V[self.rf] = uv
+            self._reaction()
+        if C is not None:
+            C.residual(C.steps * C.dt, C.u, C.v)
+            self.G0 = C.mass[self.rc] * C.A[self.rc] - C.R[self.rc]
 
     def step(self, t0: float):
-        self.clocks.part(self.C, self._coarse_free, t0 + self.C.dt)
-        self.clocks.part(self.F, self._fine, t0)
-        self.clocks.part(self.C, self._coarse_link)
+        """Coarse free step and fine free pass (concurrent on 2 ranks), one
+        reduction of the interface system's right-hand side and the fine mean
+        reaction, the interface solve (on every rank), then both corrections."""
+        clocks, n, buf = self.clocks, self.n, self._buf
+        buf[:] = 0.0
+        if self.C is not None:
+            clocks.part(self.C, self._coarse_free, t0 + self.T)
+        if self.F is not None:
+            clocks.part(self.F, self._fine_free, t0)
+        if self.comm.size > 1:
+            clocks.exchange(self._reduce)
+        V = np.zeros(n)
+        if self.zksp is not None:
+            self._b.getArray()[:] = buf[:n]
+            self.zksp.solve(self._b, self._V)
+            V = self._V.getArray().copy()
+        if self.F is not None:
+            clocks.part(self.F, self._fine_link, V)
+        if self.C is not None:
+            clocks.part(self.C, self._coarse_link, V, buf[n:].copy())
+
+    def _reduce(self):
+        from mpi4py import MPI
+        self.comm.Allreduce(MPI.IN_PLACE, self._buf, op=MPI.SUM)
 
     def _coarse_free(self, t_m):
+        """Predict, solve with the interface force G_m = -G_0 (Lambda = 0); the
+        coarse side's free interface displacement goes into the reduction."""
         C, rc = self.C, self.rc
         C.integrator.predict(C)
         C.residual(t_m, C.ut, C.vt)
-        C.R[rc] -= self.G0                              # G_m = 2 Lambda - G_0 with Lambda = 0
+        C.R[rc] -= self.G0
         C.accelerate()
-        self.uI0 = C.U[rc].copy()
-        self.uI_free = C.work_array("ut")[rc] + C.integrator.beta * C.dt ** 2 * C.A[rc]
+        self._buf[:self.n] = C.work_array("ut")[rc] + C.integrator.beta * C.dt ** 2 * C.A[rc]
 
-    def _fine(self, t0):
-        F = self.F
-        F.U[self.rf] = self.uI0
-        rbar0, rm0 = self._fine_pass(t0, 0.0)
-        b = self._b.getArray()
-        b[:] = (self.uI_free - self.uI0) - self.c_link * (self.X_II @ rbar0)
-        self.zksp.solve(self._b, self._V)
-        V = self._V.getArray().copy()
-        flat = F.state.reshape(-1)
-        flat[self.S_rows] += self.S @ V
-        self.r0 = rm0 + self.Rm @ V
-        self.Lam = -(rbar0 + self.Rbar @ V)
+    def _fine_free(self, t0):
+        """The fine pass with the interface held (V = 0); its share of the
+        interface system's right-hand side and its mean reaction."""
+        F, n = self.F, self.n
+        uF0 = F.U[self.rf].copy()
+        rbar0, self._rm0 = self._fine_pass(t0, 0.0)
+        self._buf[:n] += -uF0 - self.c_link * (self.X_II @ rbar0)
+        self._buf[n:] = rbar0
 
-    def _coarse_link(self):
+    def _fine_link(self, V):
+        """The fine state plus its response to V; the next pass's first reaction."""
+        v, state = self._link
+        self._Vf[:] = V
+        self.S.multAdd(v, state, state)
+        self.r0 = self._rm0 + self.Rm @ V
+
+    def _coarse_link(self, V, rbar0):
         C = self.C
-        C.A[:C.n_own] += self._coarse_solve(2.0 * self.Lam)
+        lam = -(rbar0 + self.Rbar @ V)
+        C.A[:C.n_own] += self._coarse_solve(2.0 * lam)
         C.integrator.correct(C)
         C.after_step()
-        self.G0 = 2.0 * self.Lam - self.G0
+        self.G0 = 2.0 * lam - self.G0

@@ -84,7 +84,7 @@ def build(scene, comm, say=_silent) -> Assembly:
     not_built = []
     if not any(p.integrator == "implicit" for p in scene.partitions):
         not_built.append("KSP (all partitions explicit)")
-    if not scheme.exchanges:
+    if not scheme.exchanges and n_part == 1:
         not_built.append("exchange (single partition)")
     if not_built:
         say(f"[solver]   not built: {', '.join(not_built)}")

@@ -399,7 +399,10 @@ def summary(result, output_file) -> list[str]:
         elif "max_rel_error" in at:
             lines.append(f"[solver]   probe {name}: max relative error {at['max_rel_error']:.3e}, "
                          f"RMS relative error {at['rms_rel_error']:.3e} (reference: {a['reference']})")
-        if "stress_peak_error" in at:
+        if "stress_peak_error" in at and not np.isfinite(at["stress_peak_error"]):
+            lines.append(f"[solver]   probe {name}: the stress wave has not arrived by the end "
+                         "of the run (no arrival or peak error)")
+        elif "stress_peak_error" in at:
             lines.append(f"[solver]   probe {name}: stress arrival error "
                          f"{100 * at['stress_arrival_error']:+.2f} % of the travel time, peak "
                          f"error {100 * at['stress_peak_error']:+.2f} %")

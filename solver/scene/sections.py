@@ -77,7 +77,7 @@ class Coupling:
         "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
         "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank); "
         "conserving: energy-conserving multi-time-step coupling of an explicit fem partition "
-        "and an implicit one at any ratio (stable by construction; docs/conserving.md, 1 rank); "
+        "and an implicit one at any ratio (stable by construction; docs/conserving.md, 1 or 2 ranks); "
         "transition: seed 003, needs model.lattice.transition: the dem partition sub-cycles "
         "over the band's motion, then the explicit fem partition steps with the particles' "
         "forces", "overlap")
