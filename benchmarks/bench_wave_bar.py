@@ -3,9 +3,10 @@
     ./run.sh bench     (or: python benchmarks/bench_wave_bar.py [--spacing 2e-4])
 
 Runs, in this process on 1 rank: the FEM-only bar, the coupled FEM-DEM bar at
-eta = 1 (explicit FEM, concurrent scheme) and at eta = 2, 3 (implicit FEM,
+eta = 1 (explicit FEM, concurrent scheme), at eta = 2, 3, 10 (implicit FEM,
 staggered scheme; the explicit FEM partition has the DEM's critical step since
-the mesh is as fine as the lattice at the interfaces).  For each: stepping wall
+the mesh is as fine as the lattice at the interfaces) and at eta = 10, 20, 30,
+50 with the energy-conserving scheme (docs/conserving.md).  For each: stepping wall
 time and its ratio to the FEM-only run, the arrival-time and peak errors at
 A, B, C against the 1D wave (x/c, sigma/(rho c)), and the energy crossing A
 after the incident pulse (left-going: reflected at the interfaces plus the
@@ -31,11 +32,12 @@ V0 = (Q / THICK) / (RHO * C)
 PROBES = {"A": 0.078, "B": 0.160, "C": 0.242}
 RUNS = [("FEM only", ["partitions=[{name: fem, method: fem, group: solid, integrator: explicit, "
                       "ratio: 1}]"], "explicit", 1),
-        ("coupled", [], "explicit", 1),
-        ("coupled", ["partitions.fem.integrator=implicit", "partitions.fem.ratio=2",
-                     "coupling.scheme=staggered"], "implicit", 2),
-        ("coupled", ["partitions.fem.integrator=implicit", "partitions.fem.ratio=3",
-                     "coupling.scheme=staggered"], "implicit", 3)]
+        ("coupled, overlap", [], "explicit", 1),
+        *[(f"coupled, {scheme}", ["partitions.fem.integrator=implicit", f"partitions.fem.ratio={eta}",
+                                  f"coupling.scheme={scheme}"], "implicit", eta)
+          for scheme, eta in (("staggered", 2), ("staggered", 3), ("staggered", 10),
+                              ("conserving", 10), ("conserving", 20), ("conserving", 30),
+                              ("conserving", 50))]]
 
 
 def metrics(res):

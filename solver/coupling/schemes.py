@@ -26,6 +26,12 @@ SUPPORT = {
 }
 
 
+# Schemes whose partitions take coupling.external (the others keep their own
+# interface treatment) and the most ranks a scheme runs on (absent: any).
+USES_EXTERNAL = {"overlap", "staggered", "transition"}
+MAX_RANKS = {"gc": 1, "conserving": 2}
+
+
 def scheme_class(name: str):
     from solver.coupling.system_step import ConcurrentOverlap, Staggered, TransitionZone
     from solver.coupling.gc import GravouilCombescure

@@ -267,7 +267,7 @@ class BondForce:
         if self.contact is not None:             # of the last force evaluation (one piece)
             total += self.contact.energy
         if self.operator is not None:
-            n = part.n_own
+            n = part.n_energy
             self.operator.mult(part.u, part.r)
             total -= 0.5 * float(np.dot(part.U[:n], part.R[:n]))
         return total

@@ -31,8 +31,10 @@ class LinearForce:
 
     def energy(self, part) -> float:
         """Strain energy of the owned DOFs: 1/2 sum_owned u_i (K u)_i, which sums to
-        1/2 u^T K u over all pieces because owned rows of a piece's K are complete."""
-        n = part.n_own
+        1/2 u^T K u over all pieces because owned rows of a piece's K are complete.
+        A partition that alone holds the elements on some external rows counts
+        those rows too (``part.n_energy``: the conserving scheme's fine side)."""
+        n = part.n_energy
         self.operator.mult(part.u, part.r)
         return -0.5 * float(np.dot(part.U[:n], part.R[:n]))
 

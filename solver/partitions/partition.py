@@ -96,6 +96,7 @@ class Partition:
         self.held_dofs = dm.dofs(held)
         self.starts = dm.starts(held)           # each held node's first local DOF
         self.n_own = dm.count(layout.owned)
+        self.n_energy = self.n_own              # rows whose 1/2 u_i (K u)_i is this partition's
         n = self.held_dofs.size
         # this rank's rows in the partition's distributed DOF numbering
         self.first = sum(dm.count(pc.held) for pc in self.dist.pieces[:layout.piece])

@@ -409,14 +409,15 @@ class Scene:
                  "integrator explicit")
         if scheme == "conserving":
             coarse = implicit[0]
-            if (other.method, other.integrator) != ("fem", "explicit") or coarse.method != "fem":
-                fail("coupling.scheme", f"conserving: partitions '{other.name}' and "
-                     f"'{coarse.name}' must be fem with integrators explicit and implicit")
+            if (other.method, other.integrator) not in (("fem", "explicit"), ("dem", "verlet")) \
+                    or coarse.method != "fem":
+                fail("coupling.scheme", f"conserving: the fine partition '{other.name}' must be "
+                     f"fem+explicit or dem+verlet and the coarse '{coarse.name}' fem+implicit")
             if (coarse.beta, coarse.gamma) != (0.25, 0.5):
                 fail(f"partitions[{parts.index(coarse)}].beta", f"conserving: the implicit "
                      f"partition '{coarse.name}' must be average acceleration (beta 0.25, "
                      f"gamma 0.5), not beta {coarse.beta:g}, gamma {coarse.gamma:g}")
-            if (other.beta, other.gamma) != (0.0, 0.5):
+            if other.method == "fem" and (other.beta, other.gamma) != (0.0, 0.5):
                 fail(f"partitions[{parts.index(other)}].beta", f"conserving: the explicit "
                      f"partition '{other.name}' must be central difference (beta 0, gamma 0.5), "
                      f"not beta {other.beta:g}, gamma {other.gamma:g}")

@@ -4,7 +4,8 @@
         [--treatments taylor,literal] [--schemes overlap] [--partition NAME]
         [--dts 0.001,0.002] [--out DIR] [--set k=v ...]
 
-For every rank count, scheme, external-data treatment and ratio eta, the coarse
+For every rank count, scheme, external-data treatment (for the schemes that
+take coupling.external; the others show "-") and ratio eta, the coarse
 partition (default: the one with the largest ratio in the scene) steps
 eta*time.dt while the others keep theirs.  With --dts the base step is swept
 instead (at the scene's ratios) and the observed convergence order is fitted.
@@ -28,6 +29,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from solver.coupling.schemes import MAX_RANKS, USES_EXTERNAL
 from solver.errors import SceneError
 from solver.scene import load
 
@@ -141,7 +143,7 @@ def plot(rows, path, title, by_dt=False):
             if not sel:
                 continue
             kw = dict(color=f"C{ki}", ls=["-", "--", ":", "-."][ri % 4], marker="o", ms=4,
-                      label=f"{scheme}/{treat}, {n} rank{'s' if n > 1 else ''}")
+                      label=f"{scheme}{'/' + treat if treat != '-' else ''}, {n} rank{'s' if n > 1 else ''}")
             xs, err, wall = ([r[xkey] for r in sel], [error_of(r) for r in sel],
                              [r["stepping_s"] for r in sel])
             ax0.loglog(xs, err, **kw)
@@ -208,16 +210,19 @@ def sweep(args, scene, ranks, by_dt, points) -> int:
     rows, variants = [], []
     for n in ranks:
         for scheme in schemes:
-            if scheme == "gc" and n > 1:
-                print(f"sweep: skipping gc on {n} ranks (the GC baseline runs on 1 rank)")
+            if n > MAX_RANKS.get(scheme, n):
+                print(f"sweep: skipping {scheme} on {n} ranks (it runs on at most "
+                      f"{MAX_RANKS[scheme]})")
                 continue
-            for treat in treatments:
+            for treat in (treatments if scheme in USES_EXTERNAL else ["-"]):
                 variants.append((n, scheme, treat))
                 base = None
                 for x in points:
-                    sets = [*args.sets, f"coupling.scheme={scheme}", f"coupling.external={treat}",
+                    sets = [*args.sets, f"coupling.scheme={scheme}",
+                            *([f"coupling.external={treat}"] if treat != "-" else []),
                             f"time.dt={x}" if by_dt else f"partitions.{coarse}.ratio={x}"]
-                    f = out / "runs" / f"n{n}_{scheme}_{treat}_{'dt' if by_dt else 'eta'}{x}.h5"
+                    tag = f"{scheme}_{treat}" if treat != "-" else scheme
+                    f = out / "runs" / f"n{n}_{tag}_{'dt' if by_dt else 'eta'}{x}.h5"
                     row = run_one(args.scene, n, sets, f)
                     row.update(ranks=n, scheme=scheme, treatment=treat,
                                eta=scene.system_ratio if by_dt else x,
