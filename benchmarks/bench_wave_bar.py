@@ -78,7 +78,7 @@ def main(argv=None):
             res = run(scene, MPI.COMM_SELF, log=lambda *x: None)
         except RunFailed as e:
             lines.append(f"| {label} | {integ} | {eta} | - | - | - | - | unstable: "
-                         f"{str(e).split(': ', 1)[1].split(', above')[0]} | - | - |")
+                         f"{str(e).split(': ', 1)[1].split(', above')[0].split('; output')[0]} | - | - |")
             print(lines[-1], flush=True)
             continue
         wall = res.attrs["stepping_wall_time"]
