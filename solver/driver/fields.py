@@ -31,7 +31,8 @@ def _open(xdmf: str):
         return TimeSeriesWriter(xdmf).__enter__()
 
 
-MESHIO_CELLS = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "hexahedron"}
+MESHIO_CELLS = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "hexahedron",
+                "shell3": "triangle"}
 
 
 def tensor6(voigt: np.ndarray, kind: str, nu: float) -> np.ndarray:
@@ -53,6 +54,7 @@ class FieldWriter:
         self.heating = heating
         self.every = scene.output.fields.every
         self.dim = mdl.dof
+        self.shell = getattr(mdl, "inertia", None) is not None      # 6 DOFs: u and rotations
         self.n = mdl.n_nodes
         self.writers = []
         self.n_open = 0
@@ -63,7 +65,7 @@ class FieldWriter:
         # meshio puts the heavy data in <stem>.h5 beside each .xdmf: keep clear of ours
         self.files = [f"{base}{tag}_fields.xdmf", f"{base}{tag}_particles.xdmf"]
         points = np.zeros((self.n, 3))
-        points[:, :self.dim] = mdl.points
+        points[:, :mdl.points.shape[1]] = mdl.points
         self.points = points
         from solver.model.elements import FAMILIES
         # the FE cells, and a transition band's cells (their stress is that of
@@ -76,7 +78,7 @@ class FieldWriter:
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu
         D = self.D = material.elastic().D()
-        for fam, conn in blocks:                     # u_e -> cell-averaged stress
+        for fam, conn in ([] if self.shell else blocks):   # u_e -> cell-averaged stress
             _, dNdx, _ = _geometry(fam, mdl.points[conn])
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
                                     dNdx.shape[1]))
@@ -103,7 +105,8 @@ class FieldWriter:
             [(local, damage)]
         if self.comm.rank != 0:
             return
-        u, v = np.zeros((self.n, 3)), np.zeros((self.n, 3))
+        width = max(self.dim, 3)
+        u, v = np.zeros((self.n, width)), np.zeros((self.n, width))
         broken = np.zeros(self.n) if any(d for _, d in chunks) else None
         for chunk, dmg in chunks:
             for nodes, uu, vv in chunk:
@@ -116,10 +119,13 @@ class FieldWriter:
                                                              np.arange(self.dim)).reshape(len(conn), -1)])
                           - self._thermal(conn), self.kind, self.nu)
                   for conn, op in self.stress_ops]
-        point = {"displacement": u, "velocity": v}
+        point = {"displacement": u[:, :3], "velocity": v[:, :3]}
+        if self.shell:
+            point["rotation"] = u[:, 3:6]
         if self.heating is not None:                 # every rank holds the same temperatures
             point["temperature"] = self.heating.T_node
-        self.writers[0].write_data(t, point_data=point, cell_data={"stress": stress})
+        self.writers[0].write_data(t, point_data=point,
+                                   cell_data={"stress": stress} if stress else None)
         if len(self.writers) > 1:
             data = {name: value[self.particles] for name, value in point.items()}
             if broken is not None:           # breakable bonds: the fraction each particle lost

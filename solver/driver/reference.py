@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from solver.model.arrays import dof_masses
 from solver.model.loads import HalfSine, Rectangular, Sine, Tabulated
 
 ZERO = 1e-9        # omega below this (relative to the largest) is a rigid mode
@@ -140,7 +141,7 @@ def forced_response(g, w, t):
 
 def modes(model):
     """(omega [nm], phi [n_dofs, nm]) mass-normalised."""
-    m = np.repeat(model.mass, model.dofmap.counts)
+    m = dof_masses(model, np.arange(model.n_nodes))
     s = 1.0 / np.sqrt(m)
     lam, psi = np.linalg.eigh(model.full_stiffness() * s[:, None] * s[None, :])
     lam = np.where(lam < ZERO * max(lam.max(), 1.0), 0.0, lam)
@@ -158,7 +159,7 @@ def modal(model, dofs, t, chunk=4096, damping=None):
     c = damping.alpha + damping.beta * w ** 2 if damped else np.zeros_like(w)
     if damped and (model.loads or np.any((w > 0) & (0.5 * c >= w))):
         raise ValueError("the damped modal reference covers underdamped free vibration only")
-    m = np.repeat(model.mass, model.dofmap.counts)
+    m = dof_masses(model, np.arange(model.n_nodes))
     q0, qd0 = phi.T @ (m * model.u0), phi.T @ (m * model.v0)
     u = np.zeros((t.size, dofs.size))
     v = np.zeros_like(u)

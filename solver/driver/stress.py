@@ -165,7 +165,7 @@ class StressProbes:
 
 def build(scene, mdl, parts):
     """StressProbes when the model is a continuum with probes, else None."""
-    if not scene.probes or not hasattr(mdl, "cells"):
-        return None
+    if not scene.probes or not hasattr(mdl, "cells") or getattr(mdl, "inertia", None) is not None:
+        return None                   # (shells: no stress probes)
     init()
     return StressProbes(scene, mdl, parts)

@@ -139,6 +139,18 @@ def spring_triplets(li, lj, k):
     return rows.astype(np.int64), cols.astype(np.int64), vals
 
 
+def dof_masses(model, held) -> np.ndarray:
+    """The lumped mass of every DOF of nodes ``held``: the node's mass, or for
+    the rotations of shell nodes (6 DOFs) its rotary inertia."""
+    m = np.repeat(model.mass[held], model.dofmap.counts[held])
+    inertia = getattr(model, "inertia", None)
+    if inertia is not None:
+        m = m.reshape(-1, 6)
+        m[:, 3:] = inertia[held][:, None]
+        m = m.ravel()
+    return m
+
+
 def build(scene: Scene, layers=None):
     """Arrays of the scene's model (network or continuum).  ``layers``: external
     layers of every partition, as the coupling scheme's treatments give them

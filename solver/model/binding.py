@@ -14,12 +14,16 @@ import dataclasses
 import numpy as np
 
 from solver.model import data as model_data
+from solver.scene.model_spec import DOF_NAMES
 from solver.scene.schema import fail
 
 
 def dof(scene, data) -> int:
-    """DOFs per node: the mesh's dimension for continua, 1 for networks."""
-    return data.dim if scene.model.kind == "continuum" else 1
+    """DOFs per node: the mesh's dimension for continua (6 for shells), 1 for
+    networks."""
+    if scene.model.kind != "continuum":
+        return 1
+    return 6 if scene.model.material.kind == "shell" else data.dim
 
 
 def bind(scene):
@@ -33,13 +37,22 @@ def bind(scene):
     if zone is not None:
         n += zone.n_core
     owned = _owned_nodes(scene, data, n, zone)
+    loads = []
     for i, ld in enumerate(scene.loads):
         if ld.group is not None:
             data.group(ld.group, f"loads[{i}].group")
-            if ld.direction is not None and len(ld.direction) != d:
-                fail(f"loads[{i}].direction", f"needs {d} components")
+            space = data.points.shape[1] if continuum else d
+            if ld.direction is not None and len(ld.direction) != space:
+                fail(f"loads[{i}].direction", f"needs {space} components")
         else:
-            _check_dof(f"loads[{i}]", ld.node, ld.component, n, d)
+            if ld.at is not None and not continuum:
+                fail(f"loads[{i}].at", "a point needs a continuum model (give node)")
+            node = ld.node if ld.node is not None else snap(scene.model, data, ld.at,
+                                                            f"loads[{i}].at", zone)
+            _check_dof(f"loads[{i}]", node, ld.component, n, d)
+            loads.append(dataclasses.replace(ld, node=node, at=None))
+            continue
+        loads.append(ld)
     for kind in ("displacement", "velocity"):
         for node in getattr(scene.initial, kind):
             _check_dof(f"initial.{kind}.{node}", node, 0, n, d)
@@ -51,7 +64,7 @@ def bind(scene):
         probes.append(dataclasses.replace(probe, node=node))
     parts = tuple(dataclasses.replace(p, nodes=nodes, group=None)
                   for p, nodes in zip(scene.partitions, owned))
-    return dataclasses.replace(scene, partitions=parts, probes=tuple(probes))
+    return dataclasses.replace(scene, partitions=parts, probes=tuple(probes), loads=tuple(loads))
 
 
 def _check_continuum(spec, mesh):
@@ -60,10 +73,21 @@ def _check_continuum(spec, mesh):
         mesh.group(name, "model.fixed")
     if spec.lattice is not None:
         mesh.group(spec.lattice.region, "model.lattice.region")
-    if (mesh.dim == 3) != (spec.material.kind == "solid"):
-        wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain")
-        fail("model.material.kind", f"{spec.material.kind} does not fit a {mesh.dim}D mesh "
+    kind = spec.material.kind
+    if (mesh.dim == 3) != (kind == "solid"):
+        wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain", "shell")
+        fail("model.material.kind", f"{kind} does not fit a {mesh.dim}D mesh "
              f"(use {wants})")
+    if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
+        fail("model.material.kind", f"{kind} needs a plane mesh (z = const); this surface "
+             f"spans {mesh.z_span:.3g} m in z: use shell")
+    names = DOF_NAMES if kind == "shell" else DOF_NAMES[:mesh.dim]
+    for i, c in enumerate(spec.constraints):
+        mesh.group(c.group, f"model.constraints[{i}].group")
+        bad = [d for d in c.dofs if d not in names]
+        if bad:
+            fail(f"model.constraints[{i}].dofs", f"{bad[0]} does not exist: a {kind} model's "
+                 f"nodes have {', '.join(names)}")
     if spec.lattice is not None and spec.lattice.transition:
         from solver.model import transition
         return transition.of(spec, mesh)

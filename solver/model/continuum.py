@@ -42,6 +42,7 @@ class ContinuumArrays:
     break_strain: float = None     # lattice bonds break beyond this strain (nonlinear)
     contact: tuple = None          # settings of model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
+    inertia: np.ndarray = None     # [n_nodes] rotary inertia of shell nodes (DOFs 3-5), or None
 
     @property
     def n_nodes(self) -> int:
@@ -201,7 +202,7 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     shape = np.rint((hi - lo) / a).astype(int) + 1
     try:
         E = spec.E or mat.E
-        lat = (square(lo, shape, a, E, mat.nu, mat.rho, mat.thickness, mat.kind)
+        lat = (square(lo, shape, a, E, mat.nu, mat.rho, mat.thickness or 1.0, mat.kind)
                if mesh.dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
     except ValueError as e:
         raise SceneError(f"model.lattice: {e}") from None
@@ -259,6 +260,13 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
     """The continuum model; ``reach``: external layers of dem partitions (lattice extent)."""
     spec = scene.model
     mesh = model_data.read(spec)
+    if spec.material.kind == "shell":
+        from solver.errors import SceneError
+        from solver.model import shell_model
+        if scene.heat is not None:
+            raise SceneError("heat: shell models carry no heat (conduction needs plane or solid "
+                             "cells)")
+        return shell_model.build(scene, mesh)
     dim = mesh.dim
     mat = spec.material.elastic()
     zone = None
@@ -273,8 +281,8 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
     if zone is not None:
         arrays = _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
         return _with_heat(arrays, scene, mesh, zone.points)
-    fixed = _fixed(scene, mesh, len(mesh.points))
-    loads = _loads(scene, mesh)
+    fixed = fixed_dofs(scene, mesh, len(mesh.points), dim)
+    loads = load_list(scene, mesh, dim, dim, facet_forces)
     n = len(mesh.points) * dim
     bonds, overlap = (), ()
     if spec.lattice is not None:
@@ -307,12 +315,18 @@ def contact_of(lat):
             c.damping_ratio, c.friction, c.tangential_damping_ratio)
 
 
-def _fixed(scene, mesh, n_nodes):
-    dim = mesh.dim
-    fixed = np.zeros(n_nodes * dim, bool)
+def fixed_dofs(scene, mesh, n_nodes, dof):
+    """[n_nodes * dof] bool: every DOF of ``model.fixed`` groups, and the chosen
+    DOFs (ux uy uz rx ry rz) of ``model.constraints``."""
+    from solver.scene.model_spec import DOF_NAMES
+    fixed = np.zeros(n_nodes * dof, bool)
     for name in scene.model.fixed:
         nodes = mesh.group(name, "model.fixed").nodes
-        fixed[(nodes[:, None] * dim + np.arange(dim)).ravel()] = True
+        fixed[(nodes[:, None] * dof + np.arange(dof)).ravel()] = True
+    for i, c in enumerate(scene.model.constraints):
+        nodes = mesh.group(c.group, f"model.constraints[{i}].group").nodes
+        comps = np.array([DOF_NAMES.index(d) for d in c.dofs])
+        fixed[(nodes[:, None] * dof + comps).ravel()] = True
     return fixed
 
 
@@ -333,24 +347,27 @@ def _with_zone(scene, mesh, zone, cells, mass):
     lat = scene.model.lattice
     return ContinuumArrays(dim, np.concatenate([mesh.points, zone.points]),
                            np.concatenate([mass, zone.mass]), cells,
-                           _fixed(scene, mesh, n_nodes), tuple(_loads(scene, mesh)),
+                           fixed_dofs(scene, mesh, n_nodes, dim),
+                           tuple(load_list(scene, mesh, dim, dim, facet_forces)),
                            np.zeros(n), np.zeros(n), zone.bonds, (), zone.blocks, zone,
                            scene.model.material.elastic().D(), lat.geometry, lat.break_strain,
                            contact_of(lat))
 
 
-def _loads(scene, mesh):
-    dim = mesh.dim
+def load_list(scene, mesh, dof, space, forces):
+    """PointLoads of the scene: group loads as nodal forces ``forces(mesh, group,
+    where)`` along ``direction`` (``space`` components), node loads on DOF
+    ``component`` (``dof`` per node)."""
     loads = []
     for i, load in enumerate(scene.loads):
         g = load_function(load)
-        direction = np.asarray(load.direction or [1.0] + [0.0] * (dim - 1), dtype=float)
+        direction = np.asarray(load.direction or [1.0] + [0.0] * (space - 1), dtype=float)
         if load.group is not None:
-            w = facet_forces(mesh, load.group, f"loads[{i}].group")
+            w = forces(mesh, load.group, f"loads[{i}].group")
             for node in np.flatnonzero(w):
-                for c in range(dim):
+                for c in range(space):
                     if direction[c]:
-                        loads.append(PointLoad(int(node) * dim + c, g, float(w[node] * direction[c])))
+                        loads.append(PointLoad(int(node) * dof + c, g, float(w[node] * direction[c])))
         else:
-            loads.append(PointLoad(load.node * dim + load.component, g))
+            loads.append(PointLoad(load.node * dof + load.component, g))
     return loads

@@ -38,7 +38,8 @@ def n_nodes(data) -> int:
 def _mesh(spec):
     from solver.model import mesh
     try:
-        return mesh.read(spec.mesh, comm=mesh.READER, parameters=spec.mesh_parameters)
+        return mesh.read(spec.mesh, comm=mesh.READER, parameters=spec.mesh_parameters,
+                         gdim=3 if spec.material.kind == "shell" else None)
     except SceneError as e:
         raise SceneError(f"model.mesh: {e}") from None
 

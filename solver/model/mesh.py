@@ -35,9 +35,10 @@ class Group:
 
 @dataclass(frozen=True)
 class Mesh:
-    points: np.ndarray           # [n_nodes, dim]
-    dim: int
+    points: np.ndarray           # [n_nodes, dim] (shells: [n_nodes, 3])
+    dim: int                     # topological dimension of the top cells
     groups: dict                 # name -> Group
+    z_span: float = 0.0          # extent of the z coordinates (a curved surface is not plane)
 
     def group(self, name: str, where: str = "") -> Group:
         if name not in self.groups:
@@ -47,7 +48,7 @@ class Mesh:
         return self.groups[name]
 
 
-def _read_gmsh(path: str, dim: int | None, parameters: dict) -> Mesh:
+def _read_gmsh(path: str, dim: int | None, parameters: dict, gdim: int | None = None) -> Mesh:
     import gmsh
     gmsh.initialize(interruptible=False)
     try:
@@ -70,7 +71,9 @@ def _read_gmsh(path: str, dim: int | None, parameters: dict) -> Mesh:
         tags, coords, _ = gmsh.model.mesh.getNodes()
         index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
         index[tags.astype(np.int64)] = np.arange(tags.size)
-        points = coords.reshape(-1, 3)[:, :top]
+        xyz = coords.reshape(-1, 3)
+        points = xyz[:, :gdim or top]
+        z_span = float(np.ptp(xyz[:, 2])) if len(xyz) else 0.0
         groups = {}
         for gdim, gtag in gmsh.model.getPhysicalGroups():
             name = gmsh.model.getPhysicalName(gdim, gtag) or f"{gdim}:{gtag}"
@@ -88,7 +91,7 @@ def _read_gmsh(path: str, dim: int | None, parameters: dict) -> Mesh:
             nodes = np.unique(np.concatenate([c.ravel() for c in cells.values()])) if cells \
                 else np.zeros(0, dtype=np.int64)
             groups[name] = Group(name, gdim, nodes, cells, etags)
-        return Mesh(points, top, groups)
+        return Mesh(points, top, groups, z_span)
     finally:
         gmsh.finalize()
 
@@ -105,15 +108,18 @@ def read_on(comm):
     READER = comm if comm is not None and comm.size > 1 else None
 
 
-def read(path: str, comm=None, dim: int | None = None, parameters: dict | None = None) -> Mesh:
+def read(path: str, comm=None, dim: int | None = None, parameters: dict | None = None,
+         gdim: int | None = None) -> Mesh:
     """Mesh ``path`` (.geo or .msh) on rank 0 of ``comm`` and broadcast it;
-    ``parameters`` define .geo numbers before it is read."""
+    ``parameters`` define .geo numbers before it is read; ``gdim``: the
+    coordinates kept (default: as many as the top cells' dimension; 3 for
+    shells)."""
     if not Path(path).is_file():
         raise SceneError(f"{path}: mesh file not found")
     mesh, error = None, None
     if comm is None or comm.rank == 0:
         try:
-            mesh = _read_gmsh(str(path), dim, parameters or {})
+            mesh = _read_gmsh(str(path), dim, parameters or {}, gdim)
         except SceneError as e:
             error = str(e)
         except Exception as e:                                 # gmsh reports parse errors so

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.model.arrays import dof_masses
 from solver.partitions import integrators
 from solver.petscutil import vec_on
 
@@ -109,7 +110,7 @@ class Partition:
         self._work = {name: np.zeros(n) for name in self.integrator.work}
         for name, arr in self._work.items():
             setattr(self, name, vec_on(arr, comm))
-        self.mass = np.repeat(model.mass[held], dm.counts[held])
+        self.mass = dof_masses(model, held)
         self._minv = 1.0 / self.mass
         self.fixed_dofs = model.fixed[self.held_dofs]
         self._minv[self.fixed_dofs] = 0.0                     # fixed DOFs never accelerate

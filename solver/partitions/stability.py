@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from solver.model.arrays import dof_masses
+
 EXACT_LIMIT = 300        # dense eigenvalues up to here
 DENSE_LIMIT = 3000       # dense eigenvalues when Lanczos does not converge, up to here
 LANCZOS_LIMIT = 300000   # scipy's Lanczos (before PETSc) up to here; assembled Gershgorin above
@@ -169,7 +171,7 @@ def check(scene, spec, model, held, n_owned=None):
     still = model.fixed[dm.dofs(held)]
     if coupled_fe(scene, spec) and n_owned is not None:
         still = still | (np.arange(still.size) >= dm.count(held[:n_owned]))
-    mass = np.where(still, np.inf, np.repeat(model.mass[held], dm.counts[held]))
+    mass = np.where(still, np.inf, dof_masses(model, held))
     fr = omega_max(blocks, held, mass, dm)
     if fr is None:
         return None, None, None      # decided once the operator exists (verdict)

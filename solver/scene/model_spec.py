@@ -132,17 +132,43 @@ class Material:
     E: float = key("Young's modulus [Pa]", positive=True)
     nu: float = key("Poisson's ratio", nonnegative=True)
     rho: float = key("density [kg/m^3]", positive=True)
-    kind: Literal["plane_stress", "plane_strain", "solid"] = key(
-        "plane_stress (2D, with thickness), plane_strain (2D) or solid (3D)", "solid")
-    thickness: float = key("out-of-plane thickness [m] (plane_stress)", 1.0, positive=True)
+    kind: Literal["plane_stress", "plane_strain", "solid", "shell"] = key(
+        "plane_stress (2D, with thickness), plane_strain (2D), solid (3D), or shell (a surface "
+        "of triangles in 3D, 6 DOFs per node: ux uy uz rx ry rz; docs/shells.md)", "solid")
+    thickness: float | None = key("thickness [m]: out of plane (plane_stress, default 1) or "
+                                  "the shell wall's (shell, required)", None, positive=True)
+    drilling: float = key("shell: the drilling-rotation penalty gamma / G of the membrane "
+                          "(Hughes-Brezzi, on Allman's one spurious mode)", 1e-2, positive=True)
+    rotary_inertia: Literal["physical", "scaled"] = key(
+        "shell: each node's rotary inertia, a third of rho t^3/12 A per element (physical) or "
+        "of rho t A (t^2 + A)/12 (scaled: the rotations never set the explicit step)",
+        "physical")
 
     def validate(self, path):
         if not self.nu < 0.5:
             fail(f"{path}.nu", f"{self.nu} must be below 0.5")
+        if self.kind == "shell" and self.thickness is None:
+            fail(f"{path}.thickness", "a shell needs its wall thickness")
 
     def elastic(self):
         from solver.model.elements import Elastic
-        return Elastic(self.E, self.nu, self.rho, self.kind, self.thickness)
+        return Elastic(self.E, self.nu, self.rho, self.kind,
+                       self.thickness if self.thickness is not None else 1.0)
+
+
+DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
+
+
+@dataclass(frozen=True)
+class Constraint:
+    group: str = key("physical group (node set) whose chosen DOFs stay zero")
+    dofs: tuple[str, ...] = key("DOFs held: ux, uy, uz (translations), rx, ry, rz (shell "
+                                "rotations), e.g. [uy, rx, rz] on a symmetry plane y = 0")
+
+    def validate(self, path):
+        bad = [d for d in self.dofs if d not in DOF_NAMES]
+        if bad or not self.dofs:
+            fail(f"{path}.dofs", f"{list(self.dofs)}: each DOF is one of {', '.join(DOF_NAMES)}")
 
 
 @dataclass(frozen=True)
@@ -216,6 +242,8 @@ class ContinuumModel:
     material: Material = key("linear elastic material")
     body: str = key("physical group of the body's cells", "solid")
     fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())
+    constraints: tuple[Constraint, ...] = key("chosen DOFs held at zero on physical groups "
+                                              "(symmetry planes, supports)", ())
     lattice: LatticeSpec | None = key("bonded DEM lattice for dem partitions", None)
     mesh_parameters: dict[str, float] = key("numbers defined before the .geo is read (the .geo "
                                             "keeps its default with If (!Exists(a)) ...), "
@@ -224,6 +252,9 @@ class ContinuumModel:
     def validate(self, path):
         if not self.mesh.endswith((".geo", ".msh")):
             fail(f"{path}.mesh", f"{self.mesh}: expected a .geo or .msh file")
+        if self.material.kind == "shell" and self.lattice is not None:
+            fail(f"{path}.lattice", "shell models have no lattice (a dem region needs a plane or "
+                 "solid body)")
 
 
 _model = tagged("kind", {"network": NetworkModel, "continuum": ContinuumModel})

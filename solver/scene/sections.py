@@ -99,9 +99,13 @@ class Load:
         "sine: A sin(omega t); half_sine: A sin(pi (t-start)/duration) on [start, start+duration], "
         "0 elsewhere; rectangular: A on [start, start+duration), 0 elsewhere (sudden load and "
         "unload); tabulated: piecewise linear through table, end values held")
-    node: int | None = key("loaded node (or give group)", None, nonnegative=True)
-    group: str | None = key("continuum models: physical group (edge in 2D, face in 3D) carrying "
+    node: int | None = key("loaded node (or give group or at)", None, nonnegative=True)
+    group: str | None = key("continuum models: physical group (edge in 2D, face in 3D; for "
+                            "shells an edge [N/m] or a patch of the surface [N/m^2]) carrying "
                             "a traction: amplitude in N/m (2D) or N/m^2 (3D)", None)
+    at: tuple[float, ...] | None = key(
+        "continuum models: a point [m]; the nearest body node takes the load on its DOF "
+        "component (as probes[].at snaps)", None)
     direction: tuple[float, ...] | None = key("continuum models: traction direction (default "
                                               "[1, 0(, 0)])", None)
     component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
@@ -113,8 +117,8 @@ class Load:
                                                       None)
 
     def validate(self, path):
-        if (self.node is None) == (self.group is None):
-            fail(f"{path}.node", "give either node or group")
+        if sum(x is not None for x in (self.node, self.group, self.at)) != 1:
+            fail(f"{path}.node", "give one of node, group or at")
         if self.direction is not None and not any(self.direction):
             fail(f"{path}.direction", f"{list(self.direction)} is the zero vector: a traction "
                  "needs a direction")

@@ -1,0 +1,209 @@
+"""Flat triangular shell element (3 nodes, 6 DOFs per node), vectorised over elements.
+
+Per node the DOFs are (u_x, u_y, u_z, theta_x, theta_y, theta_z) in global
+axes.  In the element's own frame (x along edge 1-2, z the normal) the
+stiffness is the sum of
+
+* **membrane**: the constant-strain triangle (CST) with the plane-stress law
+  E t / (1 - nu^2);
+* **drilling**: a Hughes-Brezzi penalty on the difference between each
+  node's rotation about the normal and the CST's in-plane rotation
+  omega = (dv/dx - du/dy) / 2: gamma t A sum_i (theta_z,i - omega)^2 / 3 with
+  gamma = ``drilling`` x G.  A rigid rotation about the normal costs nothing;
+  in a flat shell the drilling DOFs only take what moments drive them;
+* **bending**: the discrete Kirchhoff triangle (DKT, Batoz-Bathe-Ho 1980).
+  The slopes (dw/dx, dw/dy) are quadratic; at the corners they are the nodal
+  rotations (dw/dx = -theta_y, dw/dy = theta_x); at each edge midpoint the
+  tangential slope is the cubic Hermite one along the edge and the normal
+  slope the mean of the corners'.  The curvatures are linear; the stiffness
+  is integrated exactly with the three edge-midpoint rule.  D = E t^3 / (12
+  (1 - nu^2)).
+
+and is rotated to global axes with the element frame, T^T K T.  The lumped
+mass gives every node a third of rho t A in each translation and a third of
+the rotary inertia in each rotation (see :func:`lumped_mass`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+CORNER_SLOPES = np.array([[0, 0, -1], [0, 1, 0]], dtype=float)   # (dw/dx, dw/dy) of (w, tx, ty)
+
+
+class BadShell(ValueError):
+    def __init__(self, index: int, area: float):
+        super().__init__(f"shell element {index} is degenerate (area {area:.3g} m^2)")
+        self.index = index
+
+
+def frames(X: np.ndarray):
+    """Element frames R [e, 3, 3] (rows: local x, y, z in global axes), local
+    2D coordinates x [e, 3, 2] and areas A [e]."""
+    e1 = X[:, 1] - X[:, 0]
+    normal = np.cross(e1, X[:, 2] - X[:, 0])
+    twice = np.linalg.norm(normal, axis=1)
+    scale = np.maximum(np.linalg.norm(e1, axis=1), 1e-300) ** 2
+    bad = twice <= 1e-12 * scale
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BadShell(i, 0.5 * float(twice[i]))
+    ez = normal / twice[:, None]
+    ex = e1 / np.linalg.norm(e1, axis=1)[:, None]
+    ey = np.cross(ez, ex)
+    R = np.stack([ex, ey, ez], axis=1)
+    x = np.einsum("eij,eaj->eai", R[:, :2], X - X[:, :1])
+    return R, x, 0.5 * twice
+
+
+def _gradients(x, A):
+    """dL_i/dx, dL_i/dy of the area coordinates [e, 3, 2]."""
+    xs, ys = x[..., 0], x[..., 1]
+    j, k = [1, 2, 0], [2, 0, 1]
+    b = ys[:, j] - ys[:, k]
+    c = xs[:, k] - xs[:, j]
+    return np.stack([b, c], axis=2) / (2 * A)[:, None, None]
+
+
+def _p2_gradients(g, L):
+    """Gradients of the 6 quadratic shape functions (corners, then midpoints
+    of edges 1-2, 2-3, 3-1) at area coordinates L: [e, 6, 2]."""
+    dN = np.empty((g.shape[0], 6, 2))
+    for a in range(3):
+        dN[:, a] = (4 * L[a] - 1) * g[:, a]
+    for m, (i, j) in enumerate(EDGES):
+        dN[:, 3 + m] = 4 * (L[i] * g[:, j] + L[j] * g[:, i])
+    return dN
+
+
+EDGES = ((0, 1), (1, 2), (2, 0))
+MIDPOINTS = np.array([[0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
+
+
+def _allman_map(x):
+    """Quadratic in-plane displacements at the 6 nodes from (u, v, theta_z) per
+    corner (Allman 1984): a midpoint moves by the mean of its edge's corners
+    plus l/8 (theta_i - theta_j) along the edge's left normal.  [e, 12, 9]."""
+    n = len(x)
+    T = np.zeros((n, 6, 2, 9))
+    for a in range(3):
+        T[:, a, 0, 3 * a] = T[:, a, 1, 3 * a + 1] = 1.0
+    for m, (i, j) in enumerate(EDGES):
+        d = x[:, j] - x[:, i]                             # = l t; l/8 n_left = (-d_y, d_x) / 8
+        left = np.stack([-d[:, 1], d[:, 0]], axis=1) / 8
+        for a in (i, j):
+            T[:, 3 + m, 0, 3 * a] = T[:, 3 + m, 1, 3 * a + 1] = 0.5
+        T[:, 3 + m, :, 3 * i + 2] += left
+        T[:, 3 + m, :, 3 * j + 2] -= left
+    return T.reshape(n, 12, 9)
+
+
+def membrane(x, A, E, nu, t, drilling):
+    """Membrane stiffness with drilling rotations, local DOFs (u, v, theta_z)
+    per node [e, 9, 9]: Allman's triangle (the linear-strain triangle through
+    :func:`_allman_map`, integrated exactly at the edge midpoints) plus a
+    Hughes-Brezzi penalty gamma t A (mean theta_z - omega)^2 on its one
+    spurious mode, omega the field's rotation (dv/dx - du/dy) / 2 at the
+    centroid and gamma = ``drilling`` x G."""
+    g = _gradients(x, A)                                   # [e, 3(node), 2]
+    n = len(A)
+    Tm = _allman_map(x)
+    D = E * t / (1 - nu ** 2) * np.array([[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu) / 2]])
+    K = np.zeros((n, 9, 9))
+    for L in MIDPOINTS:
+        dN = _p2_gradients(g, L)
+        B = np.zeros((n, 3, 6, 2))
+        B[:, 0, :, 0] = dN[..., 0]
+        B[:, 1, :, 1] = dN[..., 1]
+        B[:, 2, :, 0] = dN[..., 1]
+        B[:, 2, :, 1] = dN[..., 0]
+        B = np.einsum("ekm,emj->ekj", B.reshape(n, 3, 12), Tm)
+        K += np.einsum("eki,kl,elj->eij", B, D, B) * (A / 3)[:, None, None]
+    dN = _p2_gradients(g, np.full(3, 1 / 3))
+    curl = np.zeros((n, 6, 2))
+    curl[..., 1] = 0.5 * dN[..., 0]
+    curl[..., 0] = -0.5 * dN[..., 1]
+    d = -np.einsum("em,emj->ej", curl.reshape(n, 12), Tm)
+    d[:, 2::3] += 1.0 / 3
+    gamma = drilling * E / (2 * (1 + nu))
+    K += (gamma * t * A)[:, None, None] * np.einsum("ei,ej->eij", d, d)
+    return K
+
+
+def _slope_map(x):
+    """Slopes (dw/dx, dw/dy) at the 6 nodes of the quadratic field (3 corners,
+    then midpoints of edges 1-2, 2-3, 3-1) from (w, theta_x, theta_y) per
+    node: [e, 6, 2, 9]."""
+    n = len(x)
+    S = np.zeros((n, 6, 2, 9))
+    for a in range(3):
+        S[:, a, :, 3 * a:3 * a + 3] = CORNER_SLOPES
+    for m, (i, j) in enumerate(EDGES):
+        d = x[:, j] - x[:, i]
+        length = np.linalg.norm(d, axis=1)
+        tv = d / length[:, None]
+        nv = np.stack([-tv[:, 1], tv[:, 0]], axis=1)
+        # tangential slope: cubic Hermite derivative at the midpoint
+        st = np.zeros((n, 9))
+        st[:, 3 * j] += 1.5 / length
+        st[:, 3 * i] -= 1.5 / length
+        for a in (i, j):
+            st[:, 3 * a:3 * a + 3] -= 0.25 * np.einsum("ek,kd->ed", tv, CORNER_SLOPES)
+        # normal slope: the mean of the corners'
+        sn = np.zeros((n, 9))
+        for a in (i, j):
+            sn[:, 3 * a:3 * a + 3] += 0.5 * np.einsum("ek,kd->ed", nv, CORNER_SLOPES)
+        S[:, 3 + m] = tv[:, :, None] * st[:, None, :] + nv[:, :, None] * sn[:, None, :]
+    return S
+
+
+def bending(x, A, E, nu, t):
+    """DKT bending stiffness in local DOFs (w, theta_x, theta_y) per node [e, 9, 9]."""
+    g = _gradients(x, A)                                   # dL/dx [e, 3, 2]
+    S = _slope_map(x)                                      # [e, 6, 2, 9]
+    D = E * t ** 3 / (12 * (1 - nu ** 2)) * np.array([[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu) / 2]])
+    K = np.zeros((len(A), 9, 9))
+    for L in MIDPOINTS:
+        dN = _p2_gradients(g, L)
+        # curvature components: d sx/dx, d sy/dy, d sx/dy + d sy/dx
+        Bk = np.stack([np.einsum("en,end->ed", dN[..., 0], S[:, :, 0]),
+                       np.einsum("en,end->ed", dN[..., 1], S[:, :, 1]),
+                       np.einsum("en,end->ed", dN[..., 1], S[:, :, 0]) +
+                       np.einsum("en,end->ed", dN[..., 0], S[:, :, 1])], axis=1)
+        K += np.einsum("eki,kl,elj->eij", Bk, D, Bk) * (A / 3)[:, None, None]
+    return K
+
+
+MEMBRANE_DOFS = np.array([0, 1, 5])       # u, v, theta_z within a node's 6
+BENDING_DOFS = np.array([2, 3, 4])        # w, theta_x, theta_y
+
+
+MEMBRANE = (6 * np.arange(3)[:, None] + MEMBRANE_DOFS[None, :]).ravel()
+BENDING = (6 * np.arange(3)[:, None] + BENDING_DOFS[None, :]).ravel()
+
+
+def stiffness(X: np.ndarray, E: float, nu: float, t: float, drilling: float = 1e-2) -> np.ndarray:
+    """Global-axes element stiffness [e, 18, 18] of triangles X [e, 3, 3]."""
+    R, x, A = frames(X)
+    n = len(A)
+    K = np.zeros((n, 18, 18))
+    K[:, MEMBRANE[:, None], MEMBRANE[None, :]] = membrane(x, A, E, nu, t, drilling)
+    K[:, BENDING[:, None], BENDING[None, :]] = bending(x, A, E, nu, t)
+    T = np.zeros((n, 18, 18))                 # local = T global: R on every 3-vector
+    for b in range(6):
+        T[:, 3 * b:3 * b + 3, 3 * b:3 * b + 3] = R
+    return np.einsum("eki,ekl,elj->eij", T, K, T)
+
+
+def lumped_mass(X: np.ndarray, rho: float, t: float, rotary: str = "physical") -> np.ndarray:
+    """Nodal masses per element node and DOF [e, 3, 6]: a third of rho t A in
+    each translation; in each rotation a third of the rotary inertia,
+    rho t^3 / 12 A ("physical"), or rho t A (t^2 + A) / 12 ("scaled": never
+    less than a node's share of the in-plane polar inertia of the element, so
+    the rotations do not set the explicit step)."""
+    _, _, A = frames(X)
+    m = rho * t * A / 3
+    out = np.empty((len(A), 3, 6))
+    out[:, :, :3] = m[:, None, None]
+    arm = t ** 2 / 12 + (A / 12 if rotary == "scaled" else 0.0 * A)
+    out[:, :, 3:] = (m * arm)[:, None, None]
+    return out

@@ -1,0 +1,281 @@
+"""Flat triangular shell (solver/model/shell.py, docs/shells.md): rigid-body
+modes, membrane and bending patch tests, a cantilever strip against beam
+theory, the simply supported plate's and the free ring's natural frequencies
+against the analytic ones with their convergence, runs and bad inputs."""
+import numpy as np
+import pytest
+
+from conftest import ROOT, refused, run_cli, write_scene
+from solver.model import shell
+
+E, NU, T = 210e9, 0.3, 0.01
+
+
+def rigid_modes(X):
+    """The 6 rigid-body motions of a triangle's nodes X [3, 3] (18-vectors)."""
+    out = []
+    for c in range(3):
+        d = np.zeros((3, 6))
+        d[:, c] = 1.0
+        out.append(d.ravel())
+        w = np.zeros(3)
+        w[c] = 1.0
+        d = np.zeros((3, 6))
+        d[:, :3] = np.cross(w, X)
+        d[:, 3 + c] = 1.0
+        out.append(d.ravel())
+    return np.array(out).T
+
+
+def test_rigid_body_modes_cost_nothing():
+    """Random triangles in 3D: K is symmetric, the six rigid motions give zero
+    force and K has exactly six zero eigenvalues."""
+    X = np.random.default_rng(0).standard_normal((50, 3, 3))
+    K = shell.stiffness(X, E, NU, T)
+    scale = np.abs(K).max(axis=(1, 2))
+    assert np.abs(K - K.transpose(0, 2, 1)).max(axis=(1, 2)).max() < 1e-13 * scale.min()
+    for e in range(len(X)):
+        assert np.abs(K[e] @ rigid_modes(X[e])).max() < 1e-11 * scale[e]
+        ev = np.linalg.eigvalsh(K[e])
+        assert (np.abs(ev) < 1e-10 * ev.max()).sum() == 6
+
+
+def tilted_frame():
+    a, b = 0.5, 0.8
+    Rz = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+    Rx = np.array([[1, 0, 0], [0, np.cos(b), -np.sin(b)], [0, np.sin(b), np.cos(b)]])
+    return Rx @ Rz                                      # columns: local x, y, z in global axes
+
+
+def patch():
+    """An irregular patch: 8 boundary nodes around a 2 x 2 square, 4 interior
+    nodes off-grid; 14 triangles.  (local 2D points, triangles, interior ids)"""
+    p = np.array([[0, 0], [1, 0], [2, 0], [2, 1], [2, 2], [1, 2], [0, 2], [0, 1],
+                  [0.6, 0.7], [1.3, 0.6], [1.4, 1.3], [0.7, 1.4]], float)
+    tri = np.array([[0, 1, 8], [1, 9, 8], [1, 2, 9], [2, 3, 9], [3, 10, 9], [3, 4, 10],
+                    [4, 5, 10], [5, 11, 10], [5, 6, 11], [6, 7, 11], [7, 8, 11], [7, 0, 8],
+                    [8, 9, 10], [8, 10, 11]])
+    return p, tri, np.arange(8, 12)
+
+
+def solve_patch(local_field):
+    """Prescribe ``local_field`` (6 local DOFs per node of the 2D points) on the
+    boundary of the tilted patch, solve for the interior: (computed, exact)
+    interior DOFs in global axes."""
+    p, tri, inner = patch()
+    Q = tilted_frame()
+    X = np.c_[p, np.zeros(len(p))] @ Q.T + np.array([0.3, -0.2, 0.1])
+    K = assemble(X, tri)
+    exact = np.zeros((len(p), 6))
+    for i, q in enumerate(p):
+        loc = local_field(*q)
+        exact[i, :3] = Q @ loc[:3]
+        exact[i, 3:] = Q @ loc[3:]
+    exact = exact.ravel()
+    free = np.zeros(len(p), bool)
+    free[inner] = True
+    free = np.repeat(free, 6)
+    u = exact.copy()
+    u[free] = np.linalg.solve(K[np.ix_(free, free)], -K[np.ix_(free, ~free)] @ exact[~free])
+    return u[free], exact[free]
+
+
+def assemble(X, tri):
+    K = shell.stiffness(X[tri], E, NU, T)
+    dofs = (6 * tri[:, :, None] + np.arange(6)).reshape(len(tri), 18)
+    out = np.zeros((6 * len(X), 6 * len(X)))
+    for e in range(len(tri)):
+        out[np.ix_(dofs[e], dofs[e])] += K[e]
+    return out
+
+
+def test_membrane_patch_test():
+    """A linear in-plane field (constant strain, with its rotation as the
+    drilling DOF) is reproduced exactly inside an irregular tilted patch."""
+    def field(x, y):
+        u, v = 1e-3 * (1 + 2 * x - 0.5 * y), 1e-3 * (-1 + 0.7 * x + 1.5 * y)
+        return np.array([u, v, 0, 0, 0, 0.5e-3 * (0.7 + 0.5)])
+    got, exact = solve_patch(field)
+    assert np.abs(got - exact).max() < 1e-10 * np.abs(exact).max()
+
+
+def test_bending_patch_test():
+    """A constant-curvature deflection w = (kx x^2 + ky y^2 + kxy x y) / 2, with
+    its slopes as rotations (theta_x = dw/dy, theta_y = -dw/dx), is reproduced
+    exactly inside the tilted patch."""
+    kx, ky, kxy = 2e-3, -1e-3, 1.5e-3
+
+    def field(x, y):
+        wx, wy = kx * x + 0.5 * kxy * y, ky * y + 0.5 * kxy * x
+        return np.array([0, 0, 0.5 * (kx * x * x + ky * y * y + kxy * x * y), wy, -wx, 0])
+    got, exact = solve_patch(field)
+    assert np.abs(got - exact).max() < 1e-10 * np.abs(exact).max()
+
+
+def strip(nx, ny, L=1.0, b=0.1):
+    xs, ys = np.linspace(0, L, nx + 1), np.linspace(0, b, ny + 1)
+    p = np.array([[x, y] for y in ys for x in xs])
+    tri = []
+    for j in range(ny):
+        for i in range(nx):
+            a = j * (nx + 1) + i
+            tri += [[a, a + 1, a + nx + 2], [a, a + nx + 2, a + nx + 1]]
+    return p, np.array(tri)
+
+
+def cantilever(nx, ny, load):
+    """Tip deflection / beam theory of a clamped strip 1 m x 0.1 m x 0.01 m
+    (nu = 0), tilted in 3D, under a tip force or moment spread over the tip edge."""
+    L, b = 1.0, 0.1
+    p, tri = strip(nx, ny, L, b)
+    Q = tilted_frame()
+    X = np.c_[p, np.zeros(len(p))] @ Q.T
+    K = shell.stiffness(X[tri], E, 0.0, T)
+    dofs = (6 * tri[:, :, None] + np.arange(6)).reshape(len(tri), 18)
+    Kg = np.zeros((6 * len(p), 6 * len(p)))
+    for e in range(len(tri)):
+        Kg[np.ix_(dofs[e], dofs[e])] += K[e]
+    tip = np.flatnonzero(np.isclose(p[:, 0], L))
+    w = np.full(tip.size, 1.0)
+    w[[0, -1]] = 0.5
+    w /= w.sum()
+    f = np.zeros(6 * len(p))
+    ex, ey, ez = Q.T
+    for k, node in enumerate(tip):
+        if load == "force":
+            f[6 * node:6 * node + 3] = w[k] * ez
+        elif load == "moment":
+            f[6 * node + 3:6 * node + 6] = -w[k] * ey
+        else:
+            f[6 * node:6 * node + 3] = w[k] * ey
+    free = np.repeat(~np.isclose(p[:, 0], 0.0), 6)
+    u = np.zeros(6 * len(p))
+    u[free] = np.linalg.solve(Kg[np.ix_(free, free)], f[free])
+    along = ey if load == "in-plane" else ez
+    deflection = np.mean([u[6 * k:6 * k + 3] @ along for k in tip])
+    EI = E * (T * b ** 3 if load == "in-plane" else b * T ** 3) / 12
+    beam = {"force": L ** 3 / (3 * EI), "moment": L ** 2 / (2 * EI), "in-plane": L ** 3 / (3 * EI)}
+    return deflection / beam[load]
+
+
+def test_cantilever_strip_against_beam_theory():
+    """10 x 1 cells of 2 triangles: tip force and tip moment within 0.1 % of
+    Euler-Bernoulli (DKT bending); the in-plane tip force (Allman membrane)
+    converges to it from below: 0.65, 0.87, 0.97 on 10 x 1, 20 x 2, 40 x 4."""
+    assert cantilever(10, 1, "force") == pytest.approx(1.0, abs=1e-3)
+    assert cantilever(10, 1, "moment") == pytest.approx(1.0, abs=1e-6)
+    inplane = [cantilever(10 * k, k, "in-plane") for k in (1, 2, 4)]
+    assert inplane[0] < inplane[1] < inplane[2] < 1.0 and inplane[2] > 0.95, inplane
+
+
+def shell_scene(mesh, params, body, constraints, nu=NU, **material):
+    return {
+        "name": "shell", "time": {"end": 1e-3, "dt": 1e-6},
+        "model": {"kind": "continuum", "mesh": str(ROOT / "meshes" / mesh),
+                  "mesh_parameters": params, "body": body, "constraints": constraints,
+                  "material": {"E": E, "nu": nu, "rho": 7800.0, "kind": "shell", "thickness": T,
+                               **material}},
+        "partitions": [{"name": "all", "method": "fem", "group": body, "integrator": "explicit",
+                        "ratio": 1}],
+        "reference": "none",
+    }
+
+
+def frequencies(raw, k):
+    """The k lowest natural frequencies [rad/s] of the scene's model (its
+    assembled stiffness and lumped masses, fixed DOFs removed)."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import eigsh
+    from solver.model import arrays
+    from solver.partitions.assembly import triplets
+    from solver.scene import from_dict
+    mdl = arrays.build(from_dict(raw))
+    nodes = np.arange(mdl.n_nodes)
+    r, c, v = triplets(mdl.stiffness_blocks(nodes), mdl.dofmap)
+    n = mdl.dofmap.n_dofs
+    K = sp.coo_matrix((v, (r, c)), shape=(n, n)).tocsc()
+    m = arrays.dof_masses(mdl, nodes)
+    free = np.flatnonzero(~mdl.fixed & (m > 0))
+    K = K[free][:, free]
+    w2 = eigsh(K, k, sp.diags(m[free]).tocsc(), sigma=-1.0, which="LM")[0]
+    return np.sqrt(np.clip(np.sort(w2), 0.0, None))
+
+
+def test_simply_supported_plate_frequencies_converge():
+    """Square plate 1 m x 1 m x 0.01 m, simply supported (edges: ux, uy, uz
+    held): the four lowest frequencies against pi^2 (m^2 + n^2) sqrt(D / rho t)
+    on n x n meshes of triangles; the error falls about 4x per halving."""
+    D = E * T ** 3 / (12 * (1 - NU ** 2))
+    exact = np.pi ** 2 * np.array([2, 5, 5, 8]) * np.sqrt(D / (7800 * T))
+    errors = []
+    for n in (8, 16, 32):
+        raw = shell_scene("plate_shell.geo", {"n": n}, "plate",
+                          [{"group": "edges", "dofs": ["ux", "uy", "uz"]}])
+        errors.append(np.abs(frequencies(raw, 4) / exact - 1).max())
+    assert errors[2] < 0.002, errors
+    assert errors[0] / errors[1] > 3 and errors[1] / errors[2] > 3, errors
+
+
+def test_free_ring_in_plane_frequencies_converge():
+    """A free ring (radius 1 m, width 0.05 m, wall 0.01 m, nu = 0) held in its
+    plane (uz, rx, ry of every node): after three rigid modes, the in-plane
+    flexural modes n = 2, 3 against sqrt(EI / rho A R^4) n (n^2 - 1) / sqrt(n^2 + 1)."""
+    b = 0.05
+    base = np.sqrt(E * T ** 2 / (12 * 7800))
+    exact = np.array([base * n * (n * n - 1) / np.sqrt(n * n + 1) for n in (2, 2, 3, 3)])
+    errors = []
+    for n in (24, 48, 96):
+        raw = shell_scene("ring_shell.geo", {"n": n, "b": b}, "ring",
+                          [{"group": "ring", "dofs": ["uz", "rx", "ry"]}], nu=0.0)
+        w = frequencies(raw, 7)
+        assert np.all(w[:3] < 1e-3 * w[3]), w
+        errors.append(np.abs(w[3:] / exact - 1).max())
+    assert errors[2] < 0.01, errors
+    assert errors[0] > errors[1] > errors[2], errors
+
+
+def test_plate_run_and_its_guard(tmp_path):
+    """configs/plate_shell.yaml runs (a struck simply supported plate); a step
+    beyond the shell's critical step (bending with physical rotary inertia,
+    1.71e-6 s on this mesh) is refused before stepping, naming it; with
+    rotary_inertia scaled the membrane sets it (7.76e-6 s)."""
+    import h5py
+    out = tmp_path / "p.h5"
+    proc = run_cli(["configs/plate_shell.yaml", "--set", f"output.file={out}", "--set",
+                    "time.end=2e-3"])
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(out) as f:
+        w = f["probes/centre/displacement"][()]
+        assert w.max() > 1e-5 and np.isfinite(w).all()
+    line = refused("configs/plate_shell.yaml", ["time.dt=1.8e-6"], tmp_path)
+    assert "is unstable, critical step 1.71" in line, line
+    proc = run_cli(["configs/plate_shell.yaml", "--set", f"output.file={out}", "--set",
+                    "time.end=2e-5", "--set", "time.dt=7.7e-6", "--set",
+                    "model.material.rotary_inertia=scaled"])
+    assert proc.returncode == 0 and "critical step 7.7" in proc.stdout, proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("sets, key", [
+    (["model.material.kind=solid"], "model.material.kind"),
+    (["model.material.kind=plane_stress", "model.mesh_parameters.tilt=30"], "model.material.kind"),
+    (["model.material.thickness=null"], "model.material.thickness"),
+    (["model.material.thickness=0"], "model.material.thickness"),
+    (["model.constraints.0.dofs=[uy, rw]"], "model.constraints[0].dofs"),
+    (["model.material.kind=plane_stress", "model.constraints.0.dofs=[ux, rx]"],
+     "model.constraints[0].dofs"),
+    (["model.constraints.0.group=nowhere"], "model.constraints[0].group"),
+    (["loads.0.direction=[0, 1]", "loads.0.at=null", "loads.0.group=x0"], "loads[0].direction"),
+    (["loads.0.at=[3.0, 0.5, 0.0]"], "loads[0].at"),
+    (["partitions=[{name: a, method: fem, nodes: [0, 1], integrator: explicit, ratio: 1}, "
+      "{name: b, method: fem, nodes: [1, 2], integrator: explicit, ratio: 1}]"],
+     "partitions[1].nodes"),
+])
+def test_bad_shell_input_is_refused(sets, key, tmp_path):
+    line = refused("configs/plate_shell.yaml", sets, tmp_path)
+    assert f".yaml: {key}: " in line or line.startswith(f"error: {key}: "), line
+
+
+def test_a_volume_mesh_is_not_a_shell(tmp_path):
+    line = refused("configs/wave_bar_3d.yaml", ["model.material.kind=shell",
+                                                "model.material.thickness=0.01"], tmp_path)
+    assert "model.material.kind: shell does not fit a 3D mesh" in line, line
