@@ -28,7 +28,8 @@ whenever each side is (fine: its explicit limit with the interface nodes at
 full mass).  The fine side steps once per fine step; its response to V is
 linear and precomputed (response matrix S over the rows it reaches), so the
 coupling costs one extra coarse solve and one small dense solve per system
-step.  Linear partitions only; loads on the coarse side; 1 rank.
+step.  Linear partitions only; loads on either side (the fine side's work is
+tracked on its true path); 1 or 2 ranks.
 """
 from __future__ import annotations
 
@@ -83,11 +84,6 @@ def interface(scene, mdl):
     if not iface.size:
         raise SceneError(f"coupling.scheme: conserving: partitions '{parts[f].name}' and "
                          f"'{parts[c].name}' share no element (no interface)")
-    loaded = [int(mdl.dofmap.node_of(ld.dof)[0]) for ld in mdl.loads]
-    bad = [k for k in loaded if fine[k]]
-    if bad:
-        raise SceneError(f"loads: node {bad[0]} is in the fine partition '{parts[f].name}'; "
-                         "coupling.scheme conserving takes loads on the coarse partition only")
     if getattr(mdl, "heat", None) is not None:
         raise SceneError("heat: coupling.scheme conserving couples linear partitions without heat")
     if getattr(mdl, "bond_geometry", "linear") != "linear":
@@ -111,14 +107,16 @@ def fine_mask(scene, n_nodes, f):
 
 def side_model(scene, mdl, f, k):
     """Partition ``k``'s view of ``mdl``: the fine side takes every element with
-    a fine node, the coarse side the rest and the loads."""
+    a fine node and the loads on fine nodes, the coarse side the rest."""
     fine = fine_mask(scene, mdl.n_nodes, f)
 
     def on_fine(conn):
         return fine[conn].any(axis=1)
-    if k == f:
-        return SideModel(mdl, on_fine, ())
-    return SideModel(mdl, lambda conn: ~on_fine(conn), mdl.loads)
+    nodes = mdl.dofmap.node_of([ld.dof for ld in mdl.loads]) if mdl.loads else \
+        (np.zeros(0, np.int64), None)
+    mine = fine[nodes[0]] if k == f else ~fine[nodes[0]]
+    loads = tuple(ld for ld, keep in zip(mdl.loads, mine) if keep)
+    return SideModel(mdl, on_fine if k == f else (lambda conn: ~on_fine(conn)), loads)
 
 
 def held_nodes(scene, k, f, iface):
@@ -262,13 +260,14 @@ class Conserving:
         F.V[rf], F.A[rf] = V, 0.0
         racc, axpy, r = self._racc, self._racc.axpy, F.r
         racc.set(0.0)
-        for j in range(1, m):
+        rows, path = self._ld_rows, self._path
+        for j in range(1, m + 1):
             step(t0 + j * F.dt)             # central difference or velocity Verlet
-            axpy(1.0, r)                    # the residual at the step's new displacement
-        step(t0 + m * F.dt)
-        axpy(0.5, r)
+            axpy(1.0 if j < m else 0.5, r)  # the residual at the step's new displacement
+            if rows.size:
+                path[j] = F.U[rows]
         if loads:
-            F.steps += m                    # (no loads on the fine side: no work to track)
+            F.steps += m
         last = -F.R[rf]
         return (0.5 * self.r0 - self._Racc[rf]) / m, last
 
@@ -279,18 +278,26 @@ class Conserving:
         n, F, C = self.n, self.F, self.C
         Rbar, X = np.zeros((n, n)), np.zeros((n, n))
         if F is not None:
+            groups = F._owned_loads
+            self._ld_rows = np.concatenate([g.own for g in groups]) if groups else \
+                np.zeros(0, np.int64)
+            self._path = np.zeros((self.m + 1, self._ld_rows.size))
+            self._ld_resp = np.zeros((self.m + 1, self._ld_rows.size, n))
             self._Racc = np.zeros(F.R.size)
             self._racc = P.Vec().createWithArray(self._Racc, comm=P.COMM_SELF)
-            saved = F.state.copy()
+            saved, loads = F.state.copy(), F._loads
+            F._loads = []                       # the response to V alone
             cols, self.Rm = [], np.zeros((n, n))
             for k in range(n):
                 F.state[...] = 0.0
                 V = np.zeros(n)
                 V[k] = 1.0
                 Rbar[:, k], self.Rm[:, k] = self._fine_pass(0.0, V, loads=False)
+                self._ld_resp[:, :, k] = self._path
                 reached = np.flatnonzero(F.state.reshape(-1))
                 cols.append((reached, F.state.reshape(-1)[reached]))
             F.state[...] = saved
+            F._loads = loads
             self.S = self._response(cols, F.state.size, P)
             self._Vf = np.zeros(n)
             self._link = (P.Vec().createWithArray(self._Vf, comm=P.COMM_SELF),
@@ -422,6 +429,9 @@ class Conserving:
         interface system's right-hand side and its mean reaction."""
         F, n = self.F, self.n
         uF0 = F.U[self.rf].copy()
+        self._t0 = t0
+        if self._ld_rows.size:
+            self._u0 = F.U[self._ld_rows]
         rbar0, self._rm0 = self._fine_pass(t0, 0.0)
         self._buf[:n] += -uF0 - self.c_link * (self.X_II @ rbar0)
         self._buf[n:] = rbar0
@@ -432,6 +442,23 @@ class Conserving:
         self._Vf[:] = V
         self.S.multAdd(v, state, state)
         self.r0 = self._rm0 + self.Rm @ V
+        if self._ld_rows.size:
+            self._track_work(V)
+
+    def _track_work(self, V):
+        """The external work of the fine side's loads over its m steps, on the
+        true path (free pass plus the response to V at every step), by the
+        trapezoidal rule, and the load groups' memory for the next step."""
+        F, m, h = self.F, self.m, self.F.dt
+        path = self._path + self._ld_resp @ V
+        path[0] = self._u0
+        groups = F._owned_loads
+        force = np.array([np.concatenate([g.at(self._t0 + j * h) * g.own_scale for g in groups])
+                          for j in range(m + 1)])
+        F.work += float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(path, axis=0)))
+        for g in groups:
+            g.u_prev[:] = F.U[g.own]
+            g.val_prev = g.val
 
     def _coarse_link(self, V, rbar0):
         C = self.C

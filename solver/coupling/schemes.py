@@ -18,8 +18,8 @@ SUPPORT = {
                  "layers, literal",
     "gc": "exactly two partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank",
     "conserving": "exactly two partitions on a node-matching interface: fem+implicit (average "
-                  "acceleration) with the largest ratio and fem+explicit, linear, loads on the "
-                  "implicit one; 1 or 2 ranks (one per side)",
+                  "acceleration) with the largest ratio and fem+explicit (central difference) or "
+                  "dem+verlet, linear; 1 or 2 ranks (one per side)",
     "transition": "continuum models with model.lattice.transition: one fem+explicit partition "
                   "with the largest ratio (the FE step) and one dem+verlet partition; any number "
                   "of ranks; external: taylor",

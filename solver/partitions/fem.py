@@ -13,6 +13,8 @@ the run with PETSc's reason.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from solver.errors import RunFailed, SceneError
 
 # preconditioners that solve K_eff a = r exactly, so KSP preonly is a solve
@@ -47,6 +49,13 @@ class FemPartition(Partition):
         K_eff = self.operator(blocks, scale=beta * h * h + gamma * h * b_r,
                               diagonal=(1.0 + gamma * h * a_r) * self.mass, solved=True)
         K_eff.setName(f"{self.name}_effective")
+        # fixed DOFs keep a = 0: their rows and columns become the identity and
+        # their residual is zeroed before every solve
+        lo, hi = K_eff.getOwnershipRange()
+        fixed = np.flatnonzero(self.fixed_dofs[:hi - lo])
+        self._fixed_rows = fixed[fixed < self._solve[0].getLocalSize()]
+        if fixed.size:
+            K_eff.zeroRowsColumns((lo + fixed).astype(P.IntType), diag=1.0)
         self._mats = [K_eff]
         m = self._solve[0].getLocalSize()
         self.K_OE = None
@@ -88,6 +97,8 @@ class FemPartition(Partition):
         if self.integrator.name != "implicit":
             return super().accelerate()
         a, r, _ = self._solve
+        if self._fixed_rows.size:
+            self.R[self._fixed_rows] = 0.0
         if self.K_OE is not None:
             self.K_OE.multAdd(self._a_ext, r, r)          # r_O - K_eff[O,E] a_E
         self.ksp.solve(r, a)
