@@ -5,7 +5,7 @@ against the analytic ones with their convergence, runs and bad inputs."""
 import numpy as np
 import pytest
 
-from conftest import ROOT, refused, run_cli, write_scene
+from conftest import ROOT, refused, run_cli
 from solver.model import shell
 
 E, NU, T = 210e9, 0.3, 0.01

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.collective import agree, on_root
 from solver.coupling.overlap import Layout
 from solver.coupling.system_step import _Clocks
 from solver.errors import LaunchError, SceneError, SolverError, StabilityError
@@ -149,19 +150,8 @@ class Conserving:
         """Rank 0 (the whole model) finds the interface; on 2 ranks partition k
         runs on rank k and rank 1 gets only its side's share of the model."""
         P = init()
-        from solver.partitions.partitioning import agree
         self.comm = comm
-        found, error = None, None
-        if comm.rank == 0:
-            try:
-                found = interface(scene, mdl)
-            except SceneError as e:
-                error = e
-        if comm.size > 1:
-            error = comm.bcast(error)
-        if error is not None:
-            raise error
-        f, c, iface = comm.bcast(found) if comm.size > 1 else found
+        f, c, iface = on_root(comm, interface, scene, mdl)
         self.f, self.c, self.iface, self._scene = f, c, iface, scene
         local = [f, c] if comm.size == 1 else [comm.rank]
         if comm.size > 1:

@@ -8,8 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from solver.model import arrays as model_mod
+from solver.collective import on_root
 from solver.coupling import overlap
-from solver.errors import SolverError
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
 
@@ -49,16 +49,8 @@ def build(scene, comm, say=_silent) -> Assembly:
     Dt = scene.system_dt
 
     # the whole model on rank 0 only; the partitions stage sends every rank its share
-    mdl, error = None, None
-    if comm.rank == 0:
-        try:
-            mdl = model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments))
-        except SolverError as e:
-            error = e
-    if comm.size > 1:
-        error = comm.bcast(error)
-    if error is not None:
-        raise error
+    mdl = on_root(comm, model_mod.build, scene, overlap.layer_counts(scene.partitions, treatments),
+                  share=False)
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     if mdl is not None and getattr(mdl, "zone", None) is not None:

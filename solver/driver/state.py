@@ -134,18 +134,8 @@ def read(path: str, scene, comm) -> dict:
 
     Refuses (SceneError naming the file) a missing, non-HDF5, truncated or
     foreign file, one without a checkpoint, or one written for another scene."""
-    from solver.errors import SceneError
-    data, error = None, None
-    if comm.rank == 0:
-        try:
-            data = _read(path, scene)
-        except SceneError as e:
-            error = str(e)
-    if comm.size > 1:
-        data, error = comm.bcast((data, error))
-    if error:
-        raise SceneError(error)
-    return data
+    from solver.collective import on_root
+    return on_root(comm, _read, path, scene)
 
 
 def _read(path: str, scene) -> dict:

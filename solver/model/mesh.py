@@ -116,16 +116,13 @@ def read(path: str, comm=None, dim: int | None = None, parameters: dict | None =
     shells)."""
     if not Path(path).is_file():
         raise SceneError(f"{path}: mesh file not found")
-    mesh, error = None, None
-    if comm is None or comm.rank == 0:
+    from solver.collective import on_root
+
+    def read_here():
         try:
-            mesh = _read_gmsh(str(path), dim, parameters or {}, gdim)
-        except SceneError as e:
-            error = str(e)
+            return _read_gmsh(str(path), dim, parameters or {}, gdim)
+        except SceneError:
+            raise
         except Exception as e:                                 # gmsh reports parse errors so
-            error = f"{path}: gmsh could not read it ({e})"
-    if comm is not None and comm.size > 1:
-        mesh, error = comm.bcast((mesh, error))
-    if error:
-        raise SceneError(error)
-    return mesh
+            raise SceneError(f"{path}: gmsh could not read it ({e})") from None
+    return on_root(comm if comm is not None and comm.size > 1 else None, read_here)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from solver.collective import agree, on_root
 from solver.partitions import distribute
 from solver.coupling import overlap
 from solver.partitions import ranks
@@ -76,16 +77,7 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
     model, then builds its pieces."""
     rank, size = comm.rank, comm.size
     R = scene.system_ratio
-    decided, shares, error = None, None, None
-    if rank == 0:
-        try:
-            decided, shares = plan(scene, mdl, size, treatments)
-        except SolverError as e:
-            error = e
-    if size > 1:
-        error = comm.bcast(error)
-    if error is not None:
-        raise error
+    decided, shares = on_root(comm, plan, scene, mdl, size, treatments, share=False) or (None, None)
     if size > 1:
         decided = comm.bcast(decided)
         graph, mdl = comm.scatter(shares)
@@ -120,14 +112,6 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
     damping = stability.transition_damping(scene, freqs)
     refuse(scene, [damping] if damping else [], say, freqs)
     return Partitions(layouts, assignment, dists, parts, freqs, mdl)
-
-
-def agree(comm, error):
-    """Collective: raise the first rank's error on every rank if any rank has one."""
-    errors = comm.allgather(error) if comm.size > 1 else [error]
-    first = next((e for e in errors if e is not None), None)
-    if first is not None:
-        raise first
 
 
 def check_stability(scene, mdl, layouts, ids):

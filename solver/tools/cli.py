@@ -110,18 +110,9 @@ def print_schemes():
 def load_on_root(comm, path, overrides):
     """Rank 0 reads the scene and its mesh or network and binds them; the other
     ranks receive the bound scene (they never read the mesh)."""
+    from solver.collective import on_root
     from solver.scene.file import load_with_text
-    loaded, error = None, None
-    if comm.rank == 0:
-        try:
-            loaded = load_with_text(path, overrides)
-        except SolverError as e:
-            error = e
-    if comm.size > 1:
-        loaded, error = comm.bcast((loaded, error))
-    if error is not None:
-        raise error
-    return loaded
+    return on_root(comm, load_with_text, path, overrides)
 
 
 def main(argv=None) -> int:
