@@ -88,7 +88,8 @@ def main(argv=None):
         steps = " / ".join(str(v) for v in r["steps"].values())
         lines.append(f"| {label} | {m} | {n} | {steps} | {r['setup']:.1f} | {r['stepping']:.1f} | "
                      f"{100 * r['stepping'] / ref['stepping']:.1f} % | "
-                     f"{100 * r['wall'] / ref['wall']:.1f} % | {SEED.get(m, float('nan')):.1f} % | "
+                     f"{100 * r['wall'] / ref['wall']:.1f} % | "
+                     f"{f'{SEED[m]:.1f} %' if m in SEED else '—'} | "
                      f"{100 * err:.2f} % | {r['balance']:+.2e} | {r['status']}"
                      + (f": {r['message'][:80]}" if r["status"] != "completed" else "") + " |")
         print(lines[-1], flush=True)

@@ -330,3 +330,10 @@ def test_coarse_u_tube(tmp_path):
         late = e["t"] > 0.011
         balance = e["kinetic"] + e["strain"] - e["external_work"]
         assert np.abs(balance[late]).max() < 1e-6 * e["external_work"].max(), name
+
+
+def test_quadrilaterals_are_not_shells(tmp_path):
+    line = refused("configs/wave_bar_fem.yaml", ["model.material.kind=shell",
+                                                 "model.material.thickness=0.01",
+                                                 "loads.0.direction=[1.0, 0.0, 0.0]"], tmp_path)
+    assert "model.body: group 'solid' has quad4 cells; shell elements are 3-node triangles" in line, line

@@ -78,6 +78,9 @@ def _check_continuum(spec, mesh):
         wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain", "shell")
         fail("model.material.kind", f"{kind} does not fit a {mesh.dim}D mesh "
              f"(use {wants})")
+    if kind == "shell":
+        from solver.model.shell_model import triangles
+        triangles(mesh, spec.body, "model.body")
     if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
         fail("model.material.kind", f"{kind} needs a plane mesh (z = const); this surface "
              f"spans {mesh.z_span:.3g} m in z: use shell")
