@@ -337,3 +337,20 @@ def test_quadrilaterals_are_not_shells(tmp_path):
                                                  "model.material.thickness=0.01",
                                                  "loads.0.direction=[1.0, 0.0, 0.0]"], tmp_path)
     assert "model.body: group 'solid' has quad4 cells; shell elements are 3-node triangles" in line, line
+
+
+def test_plate_on_two_ranks_is_the_one_rank_run(tmp_path):
+    """The struck plate with its one partition split over 2 ranks (6-DOF
+    blocks across the cut) gives the 1-rank centre history to 1e-12."""
+    import h5py
+    out = {}
+    for n in (1, 2):
+        path = tmp_path / f"n{n}.h5"
+        proc = run_cli(["configs/plate_shell.yaml", "--set", f"output.file={path}", "--set",
+                        "time.end=3e-3"], n=n if n > 1 else None)
+        assert proc.returncode == 0, proc.stderr
+        with h5py.File(path) as f:
+            out[n] = f["probes/centre/displacement"][()]
+            assert f.attrs["ranks"] == n
+    assert np.abs(out[1]).max() > 1e-5
+    assert np.abs(out[1] - out[2]).max() <= 1e-12 * np.abs(out[1]).max()
