@@ -73,7 +73,8 @@ class FieldWriter:
         blocks = [(fam, conn) for fam, conn, _ in mdl.cells]
         if getattr(mdl, "zone", None) is not None:
             blocks += [(FAMILIES[name], conn) for name, conn in mdl.zone.band_cells.items()]
-        self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn in blocks]
+        self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn in blocks
+                      if fam.name in MESHIO_CELLS]
         self.stress_ops = []
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu

@@ -23,7 +23,7 @@ def dof(scene, data) -> int:
     networks."""
     if scene.model.kind != "continuum":
         return 1
-    return 6 if scene.model.material.kind == "shell" else data.dim
+    return 6 if scene.model.material.kind == "shell" or scene.model.shells else data.dim
 
 
 def bind(scene):
@@ -84,7 +84,10 @@ def _check_continuum(spec, mesh):
     if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
         fail("model.material.kind", f"{kind} needs a plane mesh (z = const); this surface "
              f"spans {mesh.z_span:.3g} m in z: use shell")
-    names = DOF_NAMES if kind == "shell" else DOF_NAMES[:mesh.dim]
+    for i, part in enumerate(spec.shells):
+        from solver.model.shell_model import triangles
+        triangles(mesh, part.group, f"model.shells[{i}].group")
+    names = DOF_NAMES if kind == "shell" or spec.shells else DOF_NAMES[:mesh.dim]
     for i, c in enumerate(spec.constraints):
         mesh.group(c.group, f"model.constraints[{i}].group")
         bad = [d for d in c.dofs if d not in names]
@@ -97,10 +100,13 @@ def _check_continuum(spec, mesh):
     return None
 
 
-def _used(data, body, zone, n):
+def _used(data, body, zone, n, shells=()):
     """Nodes the model steps: the nodes of the body's cells (without a
-    transition band), or of its FE and band cells and the core particles."""
+    transition band) and of its shell surfaces, or of its FE and band cells
+    and the core particles."""
     used = np.zeros(n, bool)
+    for conn in shells:
+        used[conn] = True
     cells = body.cells if zone is None else {**zone.fe_cells, **{f"band {k}": c for k, c in
                                                                  zone.band_cells.items()}}
     for conn in cells.values():
@@ -117,7 +123,8 @@ def _owned_nodes(scene, data, n, zone=None) -> list[tuple[int, ...]]:
     mesh nodes of FE and band cells."""
     owner = np.full(n, -1, dtype=np.int64)
     continuum = scene.model.kind == "continuum"
-    used = _used(data, data.group(scene.model.body, "model.body"), zone, n) if continuum else \
+    used = _used(data, data.group(scene.model.body, "model.body"), zone, n,
+                 [data.group(p.group).cells["tri3"] for p in scene.model.shells]) if continuum else \
         np.ones(n, bool)
     out = []
     for p, part in enumerate(scene.partitions):
@@ -160,6 +167,7 @@ def snap(spec, mesh, at, key, zone=None) -> int:
         fail(key, f"{list(at)}: a point of the {dim}D mesh needs {dim} coordinates")
     body = list(mesh.group(spec.body, "model.body").cells.values() if zone is None else
                 zone.fe_cells.values())
+    body += [mesh.group(p.group).cells["tri3"] for p in getattr(spec, "shells", ())]
     nodes = np.unique(np.concatenate([c.ravel() for c in body])) if body else np.zeros(0, int)
     p = np.asarray(at[:dim], dtype=float)
     if zone is not None:

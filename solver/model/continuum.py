@@ -278,6 +278,12 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
                                             only=None if zone is None else zone.fe_cells):
         cells.append((fam, conn, Ke))
         mass += nodal(me, conn, len(mesh.points))
+    if spec.shells:
+        from solver.errors import SceneError
+        from solver.model import shell_model
+        if scene.heat is not None:
+            raise SceneError("heat: models with shells carry no heat")
+        return shell_model.build_mixed(scene, mesh, cells, mass)
     if zone is not None:
         arrays = _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
         return _with_heat(arrays, scene, mesh, zone.points)

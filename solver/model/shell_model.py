@@ -12,6 +12,8 @@ patch of the body) pressure-like loads [N/m^2], both along ``direction``;
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from solver.errors import SceneError
@@ -72,3 +74,118 @@ def build(scene, mesh):
     loads = load_list(scene, mesh, 6, 3, facet_forces)
     return ContinuumArrays(6, pts, mass, cells, fixed, tuple(loads), np.zeros(6 * n),
                            np.zeros(6 * n), inertia=inertia)
+
+
+# ------------------------------------------------------------ shells and solids
+@dataclass(frozen=True)
+class Wall:
+    """A shell surface's elastic data (the body's material, its thickness)."""
+    E: float
+    nu: float
+    thickness: float
+    drilling: float
+
+
+class Padded:
+    """A solid family's K_e on nodes with 6 DOFs: the translations' blocks, zero
+    for the rotations ([e, 3k, 3k] -> [e, 6k, 6k])."""
+
+    def __init__(self, Ke, k):
+        self.Ke, self.k = Ke, k
+        self.conn = Ke.conn
+
+    def __len__(self) -> int:
+        return len(self.Ke)
+
+    def __getitem__(self, idx) -> np.ndarray:
+        small = self.Ke[idx]
+        k = self.k
+        out = np.zeros((small.shape[0], k, 6, k, 6))
+        out[:, :, :3, :, :3] = small.reshape(-1, k, 3, k, 3)
+        return out.reshape(-1, 6 * k, 6 * k)
+
+    def subset(self, mask) -> "Padded":
+        return Padded(self.Ke.subset(mask), self.k)
+
+
+class Tie:
+    """Ties a shell node's rotation to the solid around it: for each (solid
+    element, its node a on a shell) a penalty gamma V / k |theta_a - omega|^2,
+    omega = curl(u) / 2 of the element at its centroid and gamma = ``tie`` G.
+    A rigid motion costs nothing; without it a shell edge on a solid face
+    would be a hinge (a solid has no rotational stiffness)."""
+
+    def __init__(self, family, points, conn, node, weight):
+        self.family, self.points, self.conn, self.node, self.weight = (family, points, conn,
+                                                                       node, weight)
+
+    def __len__(self) -> int:
+        return len(self.conn)
+
+    def __getitem__(self, idx) -> np.ndarray:
+        conn, node, w = self.conn[idx], self.node[idx], self.weight[idx]
+        g = centroid_gradients(self.family, self.points[conn])          # [p, k, 3]
+        p, k = conn.shape
+        D = np.zeros((p, 3, k, 6))
+        gx, gy, gz = g[..., 0], g[..., 1], g[..., 2]
+        # omega = sum_b W_b u_b, W_b = 1/2 [[0, -gz, gy], [gz, 0, -gx], [-gy, gx, 0]]
+        D[:, 0, :, 1], D[:, 0, :, 2] = 0.5 * gz, -0.5 * gy
+        D[:, 1, :, 0], D[:, 1, :, 2] = -0.5 * gz, 0.5 * gx
+        D[:, 2, :, 0], D[:, 2, :, 1] = 0.5 * gy, -0.5 * gx
+        rows = np.arange(p)
+        for c in range(3):
+            D[rows, c, node, 3 + c] += 1.0
+        D = D.reshape(p, 3, 6 * k)
+        return w[:, None, None] * np.einsum("pci,pcj->pij", D, D)
+
+    def subset(self, mask) -> "Tie":
+        return Tie(self.family, self.points, self.conn[mask], self.node[mask], self.weight[mask])
+
+
+def centroid_gradients(family, X):
+    """dN_a/dx at the element's centroid [e, k, 3] (solid families)."""
+    xi = np.full((1, family.dim), 0.25 if family.name == "tet4" else 0.0)
+    _, dN = family.shape(xi)
+    J = np.einsum("ai,eaj->eij", dN[0], X)
+    return np.einsum("eij,aj->eai", np.linalg.inv(J), dN[0])
+
+
+def build_mixed(scene, mesh, solid_cells, mass):
+    """A solid body with shell surfaces (``model.shells``): every node has 6
+    DOFs; the solid-only nodes' rotations are fixed; shell nodes on the solid
+    are tied to it."""
+    from solver.model.continuum import ContinuumArrays, facet_forces, fixed_dofs, load_list
+    from solver.model.elements import volumes
+    spec, mat = scene.model, scene.model.material
+    pts, n = mesh.points, len(mesh.points)
+    mass = mass.copy()
+    inertia = np.zeros(n)
+    on_shell = np.zeros(n, bool)
+    cells = [(fam, conn, Padded(Ke, fam.n_nodes)) for fam, conn, Ke in solid_cells]
+    for i, part in enumerate(spec.shells):
+        where = f"model.shells[{i}].group"
+        conn, tags = triangles(mesh, part.group, where)
+        try:
+            me = shell.lumped_mass(pts[conn], mat.rho, part.thickness, mat.rotary_inertia)
+        except shell.BadShell as e:
+            raise SceneError(f"{where}: group {part.group!r}: gmsh element "
+                             f"{int(tags[e.index])} (tri3) {str(e).split(' is ', 1)[1]}") from None
+        mass += np.bincount(conn.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
+        inertia += np.bincount(conn.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
+        on_shell[conn] = True
+        wall = Wall(mat.E, mat.nu, part.thickness, mat.drilling)
+        cells.append((SHELL3, conn, ShellStiffness(pts, conn, wall)))
+    G = mat.E / (2 * (1 + mat.nu))
+    for fam, conn, _ in solid_cells:
+        e, a = np.nonzero(on_shell[conn])
+        if e.size:
+            weight = mat.tie * G * volumes(fam, pts[conn[e]]) / fam.n_nodes
+            cells.append((Family("tie", fam.dim, fam.n_nodes, fam.points, fam.weights),
+                          conn[e], Tie(fam, pts, conn[e], a, weight)))
+    fixed = fixed_dofs(scene, mesh, n, 6)
+    still = ~on_shell
+    fixed.reshape(n, 6)[still, 3:] = True                 # solid-only nodes do not rotate
+    inertia[still] = np.maximum(mass[still], 1.0)          # (never used: those DOFs are fixed)
+    loads = load_list(scene, mesh, 6, 3, facet_forces)
+    return ContinuumArrays(6, pts, mass, cells, fixed, tuple(loads), np.zeros(6 * n),
+                           np.zeros(6 * n), material_D=mat.elastic().D(), inertia=inertia)

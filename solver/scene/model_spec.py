@@ -139,6 +139,9 @@ class Material:
                                   "the shell wall's (shell, required)", None, positive=True)
     drilling: float = key("shell: the drilling-rotation penalty gamma / G of the membrane "
                           "(Hughes-Brezzi, on Allman's one spurious mode)", 1e-2, positive=True)
+    tie: float = key("shells on a solid body (model.shells): the penalty gamma / G tying a shell "
+                     "node's rotation to the rotation curl(u)/2 of the solid elements around it",
+                     1.0, positive=True)
     rotary_inertia: Literal["physical", "scaled"] = key(
         "shell: each node's rotary inertia, a third of rho t^3/12 A per element (physical) or "
         "of rho t A (t^2 + A)/12 (scaled: the rotations never set the explicit step)",
@@ -234,6 +237,12 @@ class LatticeSpec:
 
 
 @dataclass(frozen=True)
+class ShellPart:
+    group: str = key("physical surface group of shell triangles joined to the solid body")
+    thickness: float = key("the shell wall's thickness [m]", positive=True)
+
+
+@dataclass(frozen=True)
 class ContinuumModel:
     """An elastic body meshed with gmsh; nodes carry dim DOFs."""
 
@@ -244,6 +253,10 @@ class ContinuumModel:
     fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())
     constraints: tuple[Constraint, ...] = key("chosen DOFs held at zero on physical groups "
                                               "(symmetry planes, supports)", ())
+    shells: tuple[ShellPart, ...] = key(
+        "solid bodies: shell surfaces (triangles, the body's material) sharing nodes with the "
+        "solid; every node then has 6 DOFs, a shell node on the solid has its rotation tied to "
+        "the solid's (docs/shells.md, \"Shells and solids\")", ())
     lattice: LatticeSpec | None = key("bonded DEM lattice for dem partitions", None)
     mesh_parameters: dict[str, float] = key("numbers defined before the .geo is read (the .geo "
                                             "keeps its default with If (!Exists(a)) ...), "
@@ -252,6 +265,11 @@ class ContinuumModel:
     def validate(self, path):
         if not self.mesh.endswith((".geo", ".msh")):
             fail(f"{path}.mesh", f"{self.mesh}: expected a .geo or .msh file")
+        if self.shells and self.material.kind != "solid":
+            fail(f"{path}.shells", f"shell surfaces join a solid body (material kind solid), "
+                 f"not {self.material.kind}")
+        if self.shells and self.lattice is not None:
+            fail(f"{path}.lattice", "a model with shells has no lattice")
         if self.material.kind == "shell" and self.lattice is not None:
             fail(f"{path}.lattice", "shell models have no lattice (a dem region needs a plane or "
                  "solid body)")
