@@ -78,14 +78,13 @@ def _check_continuum(spec, mesh):
         wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain", "shell")
         fail("model.material.kind", f"{kind} does not fit a {mesh.dim}D mesh "
              f"(use {wants})")
+    from solver.model.shell_model import triangles
     if kind == "shell":
-        from solver.model.shell_model import triangles
         triangles(mesh, spec.body, "model.body")
     if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
         fail("model.material.kind", f"{kind} needs a plane mesh (z = const); this surface "
              f"spans {mesh.z_span:.3g} m in z: use shell")
     for i, part in enumerate(spec.shells):
-        from solver.model.shell_model import triangles
         triangles(mesh, part.group, f"model.shells[{i}].group")
     names = DOF_NAMES if kind == "shell" or spec.shells else DOF_NAMES[:mesh.dim]
     for i, c in enumerate(spec.constraints):
