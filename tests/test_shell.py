@@ -339,21 +339,29 @@ def test_quadrilaterals_are_not_shells(tmp_path):
     assert "model.body: group 'solid' has quad4 cells; shell elements are 3-node triangles" in line, line
 
 
-def test_plate_on_two_ranks_is_the_one_rank_run(tmp_path):
-    """The struck plate with its one partition split over 2 ranks (6-DOF
-    blocks across the cut) gives the 1-rank centre history to 1e-12."""
+def one_and_two_ranks(config, probe, tmp_path, end):
+    """Run ``config`` to ``end`` on 1 and 2 ranks: {n: (probe history, energy)}."""
     import h5py
     out = {}
     for n in (1, 2):
         path = tmp_path / f"n{n}.h5"
-        proc = run_cli(["configs/plate_shell.yaml", "--set", f"output.file={path}", "--set",
-                        "time.end=3e-3"], n=n if n > 1 else None)
+        proc = run_cli([config, "--set", f"output.file={path}", "--set", f"time.end={end}"],
+                       n=n if n > 1 else None)
         assert proc.returncode == 0, proc.stderr
         with h5py.File(path) as f:
-            out[n] = f["probes/centre/displacement"][()]
             assert f.attrs["ranks"] == n
-    assert np.abs(out[1]).max() > 1e-5
-    assert np.abs(out[1] - out[2]).max() <= 1e-12 * np.abs(out[1]).max()
+            out[n] = (f[f"probes/{probe}/displacement"][()],
+                      {k: f[f"energy/{k}"][()] for k in ("t", "kinetic", "strain", "external_work")})
+    return out
+
+
+def test_plate_on_two_ranks_is_the_one_rank_run(tmp_path):
+    """The struck plate with its one partition split over 2 ranks (6-DOF
+    blocks across the cut) gives the 1-rank centre history to 1e-12."""
+    out = one_and_two_ranks("configs/plate_shell.yaml", "centre", tmp_path, 3e-3)
+    one, two = out[1][0], out[2][0]
+    assert np.abs(one).max() > 1e-5
+    assert np.abs(one - two).max() <= 1e-12 * np.abs(one).max()
 
 
 def block_strip(tie=1.0, n=4, nl=20, free=False):
@@ -432,21 +440,14 @@ def test_block_strip_runs(tmp_path):
     """configs/block_strip.yaml runs; energy equals the tip load's work after
     it; on 2 ranks (block and strip each on its own, 6-DOF externals
     exchanged) the tip history is the 1-rank one to 1e-12."""
-    import h5py
-    tips = {}
-    for n in (1, 2):
-        out = tmp_path / f"b{n}.h5"
-        proc = run_cli(["configs/block_strip.yaml", "--set", f"output.file={out}", "--set",
-                        "time.end=4e-3"], n=n if n > 1 else None)
-        assert proc.returncode == 0, proc.stderr
-        with h5py.File(out) as f:
-            e = {k: f[f"energy/{k}"][()] for k in ("t", "kinetic", "strain", "external_work")}
-            tips[n] = f["probes/tip/displacement"][()]
+    out = one_and_two_ranks("configs/block_strip.yaml", "tip", tmp_path, 4e-3)
+    for _, e in out.values():
         late = e["t"] > 1.5e-3
         balance = e["kinetic"][late] + e["strain"][late] - e["external_work"][late]
         assert np.abs(balance).max() < 1e-3 * e["external_work"].max()
-    assert np.abs(tips[1]).max() > 1e-4
-    assert np.abs(tips[1] - tips[2]).max() <= 1e-12 * np.abs(tips[1]).max()
+    one, two = out[1][0], out[2][0]
+    assert np.abs(one).max() > 1e-4
+    assert np.abs(one - two).max() <= 1e-12 * np.abs(one).max()
 
 
 @pytest.mark.parametrize("sets, key", [
