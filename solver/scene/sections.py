@@ -76,7 +76,7 @@ class Coupling:
         "state and exchange once per system step; staggered: seed 002, the explicit partition "
         "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
         "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank); "
-        "conserving: energy-conserving multi-time-step coupling of an explicit fem partition "
+        "conserving: energy-conserving multi-time-step coupling of an explicit fem or dem partition "
         "and an implicit one at any ratio (stable by construction; docs/conserving.md, 1 or 2 ranks); "
         "transition: seed 003, needs model.lattice.transition: the dem partition sub-cycles "
         "over the band's motion, then the explicit fem partition steps with the particles' "
