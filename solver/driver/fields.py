@@ -75,6 +75,12 @@ class FieldWriter:
             blocks += [(FAMILIES[name], conn) for name, conn in mdl.zone.band_cells.items()]
         self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn in blocks
                       if fam.name in MESHIO_CELLS]
+        # shells: membrane forces, moments and the faces' von Mises stress per
+        # triangle (NaN on the solid cells of a model with both)
+        walls = [Ke.material for fam, _, Ke in mdl.cells if fam.name == "shell3"]
+        self.walls = iter(walls) if self.shell else None
+        self.shell_blocks = [next(self.walls) if fam.name == "shell3" else None
+                             for fam, _ in blocks if fam.name in MESHIO_CELLS] if self.shell else []
         self.stress_ops = []
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu
@@ -125,13 +131,31 @@ class FieldWriter:
             point["rotation"] = u[:, 3:6]
         if self.heating is not None:                 # every rank holds the same temperatures
             point["temperature"] = self.heating.T_node
-        self.writers[0].write_data(t, point_data=point,
-                                   cell_data={"stress": stress} if stress else None)
+        cell = {"stress": stress} if stress else {}
+        if self.shell_blocks:
+            cell.update(self._resultants(u))
+        self.writers[0].write_data(t, point_data=point, cell_data=cell or None)
         if len(self.writers) > 1:
             data = {name: value[self.particles] for name, value in point.items()}
             if broken is not None:           # breakable bonds: the fraction each particle lost
                 data["damage"] = broken[self.particles]
             self.writers[1].write_data(t, point_data=data)
+
+    def _resultants(self, u) -> dict:
+        """membrane_force [N/m], moment [N m/m] (element frames) and von_mises
+        [Pa] of every shell triangle (solid cells: NaN)."""
+        from solver.model.shell import resultants
+        out = {"membrane_force": [], "moment": [], "von_mises": []}
+        for (_, conn), wall in zip(self.cells, self.shell_blocks):
+            if wall is None:
+                nan = np.full((len(conn), 3), np.nan)
+                parts = (nan, nan, nan[:, 0])
+            else:
+                parts = resultants(self.points[conn], u[conn].reshape(len(conn), 18), wall.E,
+                                   wall.nu, wall.thickness)
+            for name, value in zip(out, parts):
+                out[name].append(value)
+        return out
 
     def _thermal(self, conn):
         """D eps_th of cells ``conn`` at their mean temperature (0 without heat)."""

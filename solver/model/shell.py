@@ -97,6 +97,33 @@ def _allman_map(x):
     return T.reshape(n, 12, 9)
 
 
+def _membrane_strain(g, Tm, L):
+    """Membrane strains (xx, yy, 2xy) at area coordinates L from (u, v,
+    theta_z) per node: [e, 3, 9]."""
+    n = len(g)
+    dN = _p2_gradients(g, L)
+    B = np.zeros((n, 3, 6, 2))
+    B[:, 0, :, 0] = dN[..., 0]
+    B[:, 1, :, 1] = dN[..., 1]
+    B[:, 2, :, 0] = dN[..., 1]
+    B[:, 2, :, 1] = dN[..., 0]
+    return np.einsum("ekm,emj->ekj", B.reshape(n, 3, 12), Tm)
+
+
+def _curvature(g, S, L):
+    """Curvatures (w_xx, w_yy, 2 w_xy) of the DKT slopes at L from (w,
+    theta_x, theta_y) per node: [e, 3, 9]."""
+    dN = _p2_gradients(g, L)
+    return np.stack([np.einsum("en,end->ed", dN[..., 0], S[:, :, 0]),
+                     np.einsum("en,end->ed", dN[..., 1], S[:, :, 1]),
+                     np.einsum("en,end->ed", dN[..., 1], S[:, :, 0]) +
+                     np.einsum("en,end->ed", dN[..., 0], S[:, :, 1])], axis=1)
+
+
+def _plane_stress(E, nu):
+    return E / (1 - nu ** 2) * np.array([[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu) / 2]])
+
+
 def membrane(x, A, E, nu, t, drilling):
     """Membrane stiffness with drilling rotations, local DOFs (u, v, theta_z)
     per node [e, 9, 9]: Allman's triangle (the linear-strain triangle through
@@ -107,16 +134,10 @@ def membrane(x, A, E, nu, t, drilling):
     g = _gradients(x, A)                                   # [e, 3(node), 2]
     n = len(A)
     Tm = _allman_map(x)
-    D = E * t / (1 - nu ** 2) * np.array([[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu) / 2]])
+    D = t * _plane_stress(E, nu)
     K = np.zeros((n, 9, 9))
     for L in MIDPOINTS:
-        dN = _p2_gradients(g, L)
-        B = np.zeros((n, 3, 6, 2))
-        B[:, 0, :, 0] = dN[..., 0]
-        B[:, 1, :, 1] = dN[..., 1]
-        B[:, 2, :, 0] = dN[..., 1]
-        B[:, 2, :, 1] = dN[..., 0]
-        B = np.einsum("ekm,emj->ekj", B.reshape(n, 3, 12), Tm)
+        B = _membrane_strain(g, Tm, L)
         K += np.einsum("eki,kl,elj->eij", B, D, B) * (A / 3)[:, None, None]
     dN = _p2_gradients(g, np.full(3, 1 / 3))
     curl = np.zeros((n, 6, 2))
@@ -160,15 +181,10 @@ def bending(x, A, E, nu, t):
     """DKT bending stiffness in local DOFs (w, theta_x, theta_y) per node [e, 9, 9]."""
     g = _gradients(x, A)                                   # dL/dx [e, 3, 2]
     S = _slope_map(x)                                      # [e, 6, 2, 9]
-    D = E * t ** 3 / (12 * (1 - nu ** 2)) * np.array([[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu) / 2]])
+    D = t ** 3 / 12 * _plane_stress(E, nu)
     K = np.zeros((len(A), 9, 9))
     for L in MIDPOINTS:
-        dN = _p2_gradients(g, L)
-        # curvature components: d sx/dx, d sy/dy, d sx/dy + d sy/dx
-        Bk = np.stack([np.einsum("en,end->ed", dN[..., 0], S[:, :, 0]),
-                       np.einsum("en,end->ed", dN[..., 1], S[:, :, 1]),
-                       np.einsum("en,end->ed", dN[..., 1], S[:, :, 0]) +
-                       np.einsum("en,end->ed", dN[..., 0], S[:, :, 1])], axis=1)
+        Bk = _curvature(g, S, L)
         K += np.einsum("eki,kl,elj->eij", Bk, D, Bk) * (A / 3)[:, None, None]
     return K
 
@@ -192,6 +208,35 @@ def stiffness(X: np.ndarray, E: float, nu: float, t: float, drilling: float = 1e
     for b in range(6):
         T[:, 3 * b:3 * b + 3, 3 * b:3 * b + 3] = R
     return np.einsum("eki,ekl,elj->eij", T, K, T)
+
+
+def _local(X, u):
+    """Frames, local 2D coordinates, areas and the element DOFs u [e, 18]
+    (global axes) in each element's frame."""
+    R, x, A = frames(X)
+    loc = np.einsum("eij,ebj->ebi", R, u.reshape(len(u), 6, 3)).reshape(len(u), 18)
+    return x, A, loc
+
+
+def resultants(X: np.ndarray, u: np.ndarray, E: float, nu: float, t: float):
+    """At each element's centroid, in its own frame (x along edge 1-2, z the
+    normal): membrane forces N = t D eps (N_xx, N_yy, N_xy) [N/m], moments
+    M = t^3/12 D kappa with kappa = (w_xx, w_yy, 2 w_xy) (M_xx, M_yy, M_xy)
+    [N m/m], and the largest von Mises stress of the two faces,
+    sigma = N / t -+ 6 M / t^2 [Pa].  u: element DOFs in global axes [e, 18]."""
+    x, A, loc = _local(X, u)
+    g = _gradients(x, A)
+    centre = np.full(3, 1 / 3)
+    eps = np.einsum("ekj,ej->ek", _membrane_strain(g, _allman_map(x), centre), loc[:, MEMBRANE])
+    kappa = np.einsum("ekj,ej->ek", _curvature(g, _slope_map(x), centre), loc[:, BENDING])
+    D = _plane_stress(E, nu)
+    N, M = t * eps @ D.T, t ** 3 / 12 * kappa @ D.T
+    mises = np.zeros(len(A))
+    for side in (1.0, -1.0):
+        s = N / t - side * 6 * M / t ** 2
+        mises = np.maximum(mises, np.sqrt(s[:, 0] ** 2 - s[:, 0] * s[:, 1] + s[:, 1] ** 2 +
+                                          3 * s[:, 2] ** 2))
+    return N, M, mises
 
 
 def lumped_mass(X: np.ndarray, rho: float, t: float, rotary: str = "physical") -> np.ndarray:
