@@ -38,7 +38,8 @@ import numpy as np
 from solver.collective import agree, on_root
 from solver.coupling.overlap import Layout
 from solver.coupling.system_step import _Clocks
-from solver.errors import LaunchError, SceneError, SolverError, StabilityError
+from solver.coupling.gc import OwnSides
+from solver.errors import LaunchError, SceneError, SolverError
 from solver.partitions import stability
 from solver.partitions.dem import DemPartition
 from solver.partitions.fem import FemPartition
@@ -125,19 +126,11 @@ def held_nodes(scene, k, f, iface):
     return owned, (np.concatenate([owned, iface]) if k == f else owned)
 
 
-class Conserving:
+class Conserving(OwnSides):
     name = "conserving"
-    exchanges = ()
-
-    @staticmethod
-    def treatments(scene) -> list[str]:
-        return ["literal"] * len(scene.partitions)
 
     @classmethod
     def build(cls, scene, model, comm, say):
-        if comm.size > 2:
-            raise LaunchError(f"coupling.scheme conserving runs on 1 or 2 ranks (one per side), "
-                              f"not {comm.size}")
         for k, p in enumerate(scene.partitions):
             if p.ranks is not None and p.ranks != 1:
                 raise LaunchError(f"partitions[{k}].ranks: coupling.scheme conserving runs each "
@@ -169,18 +162,12 @@ class Conserving:
             for k in local:
                 m = side_model(scene, mdl, f, k)
                 lay = self.layout(k)
-                fr, crit, problem = stability.check(scene, specs[k], m, lay.held)
-                if problem:
-                    raise StabilityError(f"{problem} (conserving scheme: the fine side with its "
-                                         "interface nodes at full mass)")
                 kind = DemPartition if specs[k].method == "dem" else FemPartition
-                part = kind(specs[k], lay, m, P.COMM_SELF, "taylor" if k == f else "literal",
-                            dt, R, scene.damping)
-                if fr is None:                            # too large for the dense check
-                    fr, crit, problem = stability.assembled(scene, part)
-                    if problem:
-                        raise StabilityError(f"{problem} (conserving scheme)")
-                self.freqs[specs[k].name] = (fr, crit)
+                part, self.freqs[specs[k].name] = stability.side(
+                    scene, specs[k], m, lay.held,
+                    lambda: kind(specs[k], lay, m, P.COMM_SELF, "taylor" if k == f else "literal",
+                                 dt, R, scene.damping),
+                    "conserving scheme: the fine side with its interface nodes at full mass")
                 built[k] = (part, m)
         except SolverError as e:
             error = e
@@ -194,7 +181,6 @@ class Conserving:
         self.C = built[c][0] if c in built else None
         self.m = scene.system_ratio // specs[f].ratio
         self.T = specs[c].ratio * dt
-        self.h = specs[f].ratio * dt
         # interface DOFs: the free DOFs of the interface nodes, as rows of F
         # (externals) and of C
         dm = mdl.dofmap
@@ -250,12 +236,13 @@ class Conserving:
         F.V[rf], F.A[rf] = V, 0.0
         racc, axpy, r = self._racc, self._racc.axpy, F.r
         racc.set(0.0)
-        rows, path = self._ld_rows, self._path
+        rows, path, values, groups = self._ld_rows, self._path, self._values, F._owned_loads
         for j in range(1, m + 1):
             step(t0 + j * F.dt)             # central difference or velocity Verlet
             axpy(1.0 if j < m else 0.5, r)  # the residual at the step's new displacement
             if rows.size:
                 path[j] = F.U[rows]
+                values[j] = [g.val for g in groups]     # g(t_j), as the residual applied it
         if loads:
             F.steps += m
         last = -F.R[rf]
@@ -272,6 +259,12 @@ class Conserving:
             self._ld_rows = np.concatenate([g.own for g in groups]) if groups else \
                 np.zeros(0, np.int64)
             self._path = np.zeros((self.m + 1, self._ld_rows.size))
+            self._values = np.zeros((self.m + 1, len(groups)))      # each group's g(t_j)
+            self._scale = np.zeros((len(groups), self._ld_rows.size))  # group -> loaded rows
+            at = 0
+            for i, g in enumerate(groups):
+                self._scale[i, at:at + g.own.size] = g.own_scale
+                at += g.own.size
             self._ld_resp = np.zeros((self.m + 1, self._ld_rows.size, n))
             self._Racc = np.zeros(F.R.size)
             self._racc = P.Vec().createWithArray(self._Racc, comm=P.COMM_SELF)
@@ -337,7 +330,7 @@ class Conserving:
                 f"{self.iface.tolist()[:6]}, fine '{specs[self.f].name}' on the coarse side's "
                 f"straight interface path, coarse '{specs[self.c].name}' with the fine reactions' "
                 f"trapezoidal mean; {self.n}x{self.n} interface system factored once"
-                + (", one allreduce of 2 x {self.n} values per system step".format(self=self)
+                + (f", one allreduce of 2 x {self.n} values per system step"
                    if self.comm.size > 1 else "")
                 + f"; stable by construction at any ratio (here {self.m})")
 
@@ -419,9 +412,9 @@ class Conserving:
         interface system's right-hand side and its mean reaction."""
         F, n = self.F, self.n
         uF0 = F.U[self.rf].copy()
-        self._t0 = t0
         if self._ld_rows.size:
             self._u0 = F.U[self._ld_rows]
+            self._values[0] = [g.val_prev for g in F._owned_loads]
         rbar0, self._rm0 = self._fine_pass(t0, 0.0)
         self._buf[:n] += -uF0 - self.c_link * (self.X_II @ rbar0)
         self._buf[n:] = rbar0
@@ -439,14 +432,12 @@ class Conserving:
         """The external work of the fine side's loads over its m steps, on the
         true path (free pass plus the response to V at every step), by the
         trapezoidal rule, and the load groups' memory for the next step."""
-        F, m, h = self.F, self.m, self.F.dt
+        F = self.F
         path = self._path + self._ld_resp @ V
         path[0] = self._u0
-        groups = F._owned_loads
-        force = np.array([np.concatenate([g.at(self._t0 + j * h) * g.own_scale for g in groups])
-                          for j in range(m + 1)])
+        force = self._values @ self._scale                      # [m + 1, loaded rows]
         F.work += float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(path, axis=0)))
-        for g in groups:
+        for g in F._owned_loads:
             g.u_prev[:] = F.U[g.own]
             g.val_prev = g.val
 

@@ -25,7 +25,6 @@ import numpy as np
 
 from solver.partitions import stability
 from solver.coupling.system_step import _Clocks
-from solver.errors import LaunchError, StabilityError
 from solver.partitions.fem import FemPartition
 from solver.coupling.overlap import Layout
 from solver.petscutil import init
@@ -61,13 +60,19 @@ def subdomains(scene, mdl):
             iface, (a, b))
 
 
-class GravouilCombescure:
-    name = "gc"
+class OwnSides:
+    """What the schemes that lay out their own two sides share (gc,
+    conserving): no VecScatter exchange, every partition's external data
+    taken literally."""
     exchanges = ()
 
     @staticmethod
     def treatments(scene) -> list[str]:
         return ["literal"] * len(scene.partitions)
+
+
+class GravouilCombescure(OwnSides):
+    name = "gc"
 
     @classmethod
     def build(cls, scene, model, comm, say):
@@ -76,28 +81,20 @@ class GravouilCombescure:
         return scheme
 
     def __init__(self, scene, mdl, comm):
-        if comm.size != 1:
-            raise LaunchError("coupling.scheme gc (the GC baseline) runs on 1 rank")
         P = init()
         (model_a, model_b), (lay_a, lay_b), iface, (a, b) = subdomains(scene, mdl)
-        spec_a, spec_b = scene.partitions[a], scene.partitions[b]
+        R, note = scene.system_ratio, "GC subdomain, interface mass halved"
         self.freqs = {}
-        for spec, m, lay in ((spec_a, model_a, lay_a), (spec_b, model_b, lay_b)):
-            fr, crit, problem = stability.check(scene, spec, m, lay.held)
-            self.freqs[spec.name] = (fr, crit)
-            if problem:
-                raise StabilityError(f"{problem} (GC subdomain, interface mass halved)")
-        R = scene.system_ratio
-        self.A = FemPartition(spec_a, lay_a, model_a, P.COMM_SELF, "literal", scene.time.dt, R,
-                              scene.damping)
-        self.B = FemPartition(spec_b, lay_b, model_b, P.COMM_SELF, "literal", scene.time.dt, R,
-                              scene.damping)
-        for part in (self.A, self.B):               # too large for the dense check
-            if self.freqs[part.name][0] is None:
-                fr, crit, problem = stability.assembled(scene, part)
-                self.freqs[part.name] = (fr, crit)
-                if problem:
-                    raise StabilityError(f"{problem} (GC subdomain, interface mass halved)")
+        built = []
+        for spec, m, lay in ((scene.partitions[a], model_a, lay_a),
+                             (scene.partitions[b], model_b, lay_b)):
+            part, self.freqs[spec.name] = stability.side(
+                scene, spec, m, lay.held,
+                lambda spec=spec, lay=lay, m=m: FemPartition(spec, lay, m, P.COMM_SELF, "literal",
+                                                             scene.time.dt, R, scene.damping),
+                note)
+            built.append(part)
+        self.A, self.B = built
         self.parts = [self.A, self.B] if a == 0 else [self.B, self.A]
         self.models = {self.A.name: model_a, self.B.name: model_b}
         self.m = self.A.n_sub
@@ -114,7 +111,7 @@ class GravouilCombescure:
             self.X[:, k] = sol.getArray()
         rhs.destroy()
         sol.destroy()
-        ga, gb = spec_a.gamma, spec_b.gamma
+        ga, gb = scene.partitions[a].gamma, scene.partitions[b].gamma
         H = ga * self.A.dt * np.diag(1.0 / self.A.mass[self.ia]) - gb * self.B.dt * self.X[self.ib]
         self.H_inv = np.linalg.inv(H)
         self._ga, self._gb = ga * self.A.dt, gb * self.B.dt

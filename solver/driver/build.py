@@ -11,7 +11,8 @@ from solver.model import arrays as model_mod
 from solver.collective import on_root
 from solver.coupling import overlap
 from solver.petscutil import init
-from solver.coupling.schemes import scheme_class
+from solver.coupling.schemes import MAX_RANKS, scheme_class
+from solver.errors import LaunchError
 
 
 def _silent(*_):
@@ -43,6 +44,10 @@ def build(scene, comm, say=_silent) -> Assembly:
     size = comm.size
     n_part = len(scene.partitions)
     scheme_cls = scheme_class(scene.coupling.scheme)
+    most = MAX_RANKS.get(scene.coupling.scheme)
+    if most is not None and size > most:
+        span = "1 rank" if most == 1 else "1 or 2 ranks" if most == 2 else f"1 to {most} ranks"
+        raise LaunchError(f"coupling.scheme {scene.coupling.scheme} runs on {span}, not {size}")
     treatments = scheme_cls.treatments(scene)
     R = scene.system_ratio
     n_sys = scene.n_system_steps

@@ -122,6 +122,24 @@ def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
     return Frequency(float(np.sqrt(radius)), "Gershgorin bound")
 
 
+def side(scene, spec, model, held, build, note):
+    """A partition built by a scheme that lays out its own sides (gc,
+    conserving): the dense check on ``model``'s blocks of ``held``, then
+    ``build()``, and for partitions too large for the dense check the bound
+    from the assembled operator.  Returns (partition, (Frequency, critical
+    step)); an unstable step raises StabilityError, ``note`` appended."""
+    from solver.errors import StabilityError
+    fr, crit, problem = check(scene, spec, model, held)
+    part = None
+    if not problem:
+        part = build()
+        if fr is None:
+            fr, crit, problem = assembled(scene, part)
+    if problem:
+        raise StabilityError(f"{problem} ({note})")
+    return part, (fr, crit)
+
+
 def assembled(scene, part):
     """(Frequency, critical step, problem) of a built partition from its operator."""
     still = part.fixed_dofs
