@@ -41,6 +41,7 @@ from solver.coupling.system_step import _Clocks
 from solver.coupling.gc import OwnSides
 from solver.errors import LaunchError, SceneError, SolverError
 from solver.partitions import stability
+from solver.partitions.assembly import kept
 from solver.partitions.dem import DemPartition
 from solver.partitions.fem import FemPartition
 from solver.petscutil import init
@@ -63,14 +64,8 @@ class SideModel:
         return self._filter(self._model.bond_blocks(held))
 
     def _filter(self, blocks):
-        out = []
-        for conn, Ke in blocks:
-            keep = self._keep(conn)
-            if keep.all():
-                out.append((conn, Ke))
-            elif keep.any():
-                out.append((conn[keep], Ke.subset(keep) if hasattr(Ke, "subset") else Ke[keep]))
-        return out
+        return [kept(conn, Ke, keep) for conn, Ke in blocks
+                for keep in [self._keep(conn)] if keep.any()]
 
 
 def interface(scene, mdl):

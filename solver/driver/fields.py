@@ -77,10 +77,9 @@ class FieldWriter:
                       if fam.name in MESHIO_CELLS]
         # shells: membrane forces, moments and the faces' von Mises stress per
         # triangle (NaN on the solid cells of a model with both)
-        walls = [Ke.material for fam, _, Ke in mdl.cells if fam.name == "shell3"]
-        self.walls = iter(walls) if self.shell else None
-        self.shell_blocks = [next(self.walls) if fam.name == "shell3" else None
-                             for fam, _ in blocks if fam.name in MESHIO_CELLS] if self.shell else []
+        self.shell_blocks = [Ke.material if fam.name == "shell3" else None
+                             for fam, _, Ke in mdl.cells if fam.name in MESHIO_CELLS] \
+            if self.shell else []
         self.stress_ops = []
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu

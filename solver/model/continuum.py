@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from solver.model import data as model_data
-from solver.partitions.assembly import group_matrices, nodal
+from solver.partitions.assembly import group_matrices, kept, nodal
 from solver.model.loads import load_function
 from solver.model.arrays import PointLoad
 from solver.model.dofmap import DofMap
@@ -67,15 +67,7 @@ class ContinuumArrays:
         inh = self._held(nodes)
 
         def touching(cells):
-            out = []
-            for fam, conn, Ke in cells:
-                keep = inh[conn].any(axis=1)
-                if hasattr(Ke, "subset"):
-                    Ke = Ke.subset(keep)
-                    out.append((fam, Ke.conn, Ke))
-                else:
-                    out.append((fam, conn[keep], Ke[keep]))
-            return out
+            return [(fam, *kept(conn, Ke, inh[conn].any(axis=1))) for fam, conn, Ke in cells]
         bonds = self.bonds
         if bonds:
             bi, bj, k = bonds
@@ -87,14 +79,7 @@ class ContinuumArrays:
 
     def _cell_blocks(self, cells, held) -> list:
         inh = self._held(held)
-        out = []
-        for _, conn, Ke in cells:
-            keep = np.all(inh[conn], axis=1)
-            if keep.all():
-                out.append((conn, Ke))
-            else:
-                out.append((conn[keep], Ke.subset(keep) if hasattr(Ke, "subset") else Ke[keep]))
-        return out
+        return [kept(conn, Ke, np.all(inh[conn], axis=1)) for _, conn, Ke in cells]
 
     def stiffness_blocks(self, held: np.ndarray) -> list:
         """Block sets (global node ids) of the body cells whose nodes are all held.
@@ -260,12 +245,13 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
     """The continuum model; ``reach``: external layers of dem partitions (lattice extent)."""
     spec = scene.model
     mesh = model_data.read(spec)
-    if spec.material.kind == "shell":
+    shells = spec.material.kind == "shell" or spec.shells
+    if shells and scene.heat is not None:
         from solver.errors import SceneError
+        raise SceneError("heat: models with shells carry no heat (conduction needs plane or "
+                         "solid cells)")
+    if spec.material.kind == "shell":
         from solver.model import shell_model
-        if scene.heat is not None:
-            raise SceneError("heat: shell models carry no heat (conduction needs plane or solid "
-                             "cells)")
         return shell_model.build(scene, mesh)
     dim = mesh.dim
     mat = spec.material.elastic()
@@ -279,16 +265,13 @@ def build(scene, reach: int = 1) -> ContinuumArrays:
         cells.append((fam, conn, Ke))
         mass += nodal(me, conn, len(mesh.points))
     if spec.shells:
-        from solver.errors import SceneError
         from solver.model import shell_model
-        if scene.heat is not None:
-            raise SceneError("heat: models with shells carry no heat")
         return shell_model.build_mixed(scene, mesh, cells, mass)
     if zone is not None:
         arrays = _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
         return _with_heat(arrays, scene, mesh, zone.points)
     fixed = fixed_dofs(scene, mesh, len(mesh.points), dim)
-    loads = load_list(scene, mesh, dim, dim, facet_forces)
+    loads = load_list(scene, mesh, dim, dim)
     n = len(mesh.points) * dim
     bonds, overlap = (), ()
     if spec.lattice is not None:
@@ -354,22 +337,22 @@ def _with_zone(scene, mesh, zone, cells, mass):
     return ContinuumArrays(dim, np.concatenate([mesh.points, zone.points]),
                            np.concatenate([mass, zone.mass]), cells,
                            fixed_dofs(scene, mesh, n_nodes, dim),
-                           tuple(load_list(scene, mesh, dim, dim, facet_forces)),
+                           tuple(load_list(scene, mesh, dim, dim)),
                            np.zeros(n), np.zeros(n), zone.bonds, (), zone.blocks, zone,
                            scene.model.material.elastic().D(), lat.geometry, lat.break_strain,
                            contact_of(lat))
 
 
-def load_list(scene, mesh, dof, space, forces):
-    """PointLoads of the scene: group loads as nodal forces ``forces(mesh, group,
-    where)`` along ``direction`` (``space`` components), node loads on DOF
-    ``component`` (``dof`` per node)."""
+def load_list(scene, mesh, dof, space):
+    """PointLoads of the scene: group loads as the nodal forces of their facets
+    (:func:`facet_forces`) along ``direction`` (``space`` components), node
+    loads on DOF ``component`` (``dof`` per node)."""
     loads = []
     for i, load in enumerate(scene.loads):
         g = load_function(load)
         direction = np.asarray(load.direction or [1.0] + [0.0] * (space - 1), dtype=float)
         if load.group is not None:
-            w = forces(mesh, load.group, f"loads[{i}].group")
+            w = facet_forces(mesh, load.group, f"loads[{i}].group")
             for node in np.flatnonzero(w):
                 for c in range(space):
                     if direction[c]:

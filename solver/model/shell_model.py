@@ -54,24 +54,30 @@ def triangles(mesh, name, where):
     return group.cells["tri3"], group.cell_tags["tri3"]
 
 
-def build(scene, mesh):
-    """The shell model of ``scene`` on ``mesh`` (3D points)."""
-    from solver.model.continuum import ContinuumArrays, facet_forces, fixed_dofs, load_list
-    spec = scene.model
-    mat = spec.material
-    conn, tags = triangles(mesh, spec.body, "model.body")
-    pts = mesh.points
+def surface(mesh, group, where, material, wall):
+    """The shell cells of ``group`` (wall: E, nu, thickness, drilling) and
+    their nodal translational masses and rotary inertias [n_nodes]."""
+    conn, tags = triangles(mesh, group, where)
+    pts, n = mesh.points, len(mesh.points)
     try:
-        me = shell.lumped_mass(pts[conn], mat.rho, mat.thickness, mat.rotary_inertia)
+        me = shell.lumped_mass(pts[conn], material.rho, wall.thickness, material.rotary_inertia)
     except shell.BadShell as e:
-        raise SceneError(f"model.body: group {spec.body!r}: gmsh element {int(tags[e.index])} "
+        raise SceneError(f"{where}: group {group!r}: gmsh element {int(tags[e.index])} "
                          f"(tri3) {str(e).split(' is ', 1)[1]}") from None
-    n = len(pts)
     mass = np.bincount(conn.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
     inertia = np.bincount(conn.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
-    cells = [(SHELL3, conn, ShellStiffness(pts, conn, mat))]
+    return (SHELL3, conn, ShellStiffness(pts, conn, wall)), mass, inertia
+
+
+def build(scene, mesh):
+    """The shell model of ``scene`` on ``mesh`` (3D points)."""
+    from solver.model.continuum import ContinuumArrays, fixed_dofs, load_list
+    spec = scene.model
+    cell, mass, inertia = surface(mesh, spec.body, "model.body", spec.material, spec.material)
+    pts, n = mesh.points, len(mesh.points)
+    cells = [cell]
     fixed = fixed_dofs(scene, mesh, n, 6)
-    loads = load_list(scene, mesh, 6, 3, facet_forces)
+    loads = load_list(scene, mesh, 6, 3)
     return ContinuumArrays(6, pts, mass, cells, fixed, tuple(loads), np.zeros(6 * n),
                            np.zeros(6 * n), inertia=inertia)
 
@@ -154,7 +160,7 @@ def build_mixed(scene, mesh, solid_cells, mass):
     """A solid body with shell surfaces (``model.shells``): every node has 6
     DOFs; the solid-only nodes' rotations are fixed; shell nodes on the solid
     are tied to it."""
-    from solver.model.continuum import ContinuumArrays, facet_forces, fixed_dofs, load_list
+    from solver.model.continuum import ContinuumArrays, fixed_dofs, load_list
     from solver.model.elements import volumes
     spec, mat = scene.model, scene.model.material
     pts, n = mesh.points, len(mesh.points)
@@ -163,18 +169,12 @@ def build_mixed(scene, mesh, solid_cells, mass):
     on_shell = np.zeros(n, bool)
     cells = [(fam, conn, Padded(Ke, fam.n_nodes)) for fam, conn, Ke in solid_cells]
     for i, part in enumerate(spec.shells):
-        where = f"model.shells[{i}].group"
-        conn, tags = triangles(mesh, part.group, where)
-        try:
-            me = shell.lumped_mass(pts[conn], mat.rho, part.thickness, mat.rotary_inertia)
-        except shell.BadShell as e:
-            raise SceneError(f"{where}: group {part.group!r}: gmsh element "
-                             f"{int(tags[e.index])} (tri3) {str(e).split(' is ', 1)[1]}") from None
-        mass += np.bincount(conn.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
-        inertia += np.bincount(conn.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
-        on_shell[conn] = True
-        wall = Wall(mat.E, mat.nu, part.thickness, mat.drilling)
-        cells.append((SHELL3, conn, ShellStiffness(pts, conn, wall)))
+        cell, m, rot = surface(mesh, part.group, f"model.shells[{i}].group", mat,
+                               Wall(mat.E, mat.nu, part.thickness, mat.drilling))
+        mass += m
+        inertia += rot
+        on_shell[cell[1]] = True
+        cells.append(cell)
     G = mat.E / (2 * (1 + mat.nu))
     for fam, conn, _ in solid_cells:
         e, a = np.nonzero(on_shell[conn])
@@ -186,6 +186,6 @@ def build_mixed(scene, mesh, solid_cells, mass):
     still = ~on_shell
     fixed.reshape(n, 6)[still, 3:] = True                 # solid-only nodes do not rotate
     inertia[still] = np.maximum(mass[still], 1.0)          # (never used: those DOFs are fixed)
-    loads = load_list(scene, mesh, 6, 3, facet_forces)
+    loads = load_list(scene, mesh, 6, 3)
     return ContinuumArrays(6, pts, mass, cells, fixed, tuple(loads), np.zeros(6 * n),
                            np.zeros(6 * n), material_D=mat.elastic().D(), inertia=inertia)

@@ -39,6 +39,14 @@ class CellStiffness:
         return CellStiffness(self.family, self.points, self.conn[mask], self.material)
 
 
+def kept(conn, Ke, keep):
+    """(conn, Ke) of the elements ``keep`` (a mask) of a block set, whether Ke
+    is an array or computed when asked (``subset``)."""
+    if keep.all():
+        return conn, Ke
+    return conn[keep], (Ke.subset(keep) if hasattr(Ke, "subset") else Ke[keep])
+
+
 def stiffness_triplets(Ke: np.ndarray, conn: np.ndarray, dofmap):
     """COO (rows, cols, values) of element matrices Ke [n_el, nd, nd] over the
     model DOFs of ``dofmap``."""
