@@ -21,7 +21,7 @@ def history(scene, t, x):
     load = scene.loads[ref.load]
     g = load_function(load)
     direction = (load.direction or (1.0,))[0]
-    stress = direction / ((mat.thickness or 1.0) if mat.kind == "plane_stress" else 1.0)
+    stress = direction / mat.depth
     tau = np.asarray(t) - x / c
     v = np.where(tau >= 0, g.values(np.maximum(tau, 0.0)), 0.0) * stress / (mat.rho * c)
     dt = np.diff(t, prepend=t[0])

@@ -187,7 +187,7 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     shape = np.rint((hi - lo) / a).astype(int) + 1
     try:
         E = spec.E or mat.E
-        lat = (square(lo, shape, a, E, mat.nu, mat.rho, mat.thickness or 1.0, mat.kind)
+        lat = (square(lo, shape, a, E, mat.nu, mat.rho, mat.depth, mat.kind)
                if mesh.dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
     except ValueError as e:
         raise SceneError(f"model.lattice: {e}") from None

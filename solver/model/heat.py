@@ -99,7 +99,7 @@ class Conduction:
 def _matrices(mesh, cells: dict, spec, material):
     """(K triplets, capacity, laser source) over the mesh nodes."""
     from solver.model.elements import FAMILIES, _geometry
-    t = (material.thickness or 1.0) if material.kind == "plane_stress" else 1.0
+    t = material.measure()
     n = len(mesh.points)
     rows, cols, vals = [], [], []
     cap, src = np.zeros(n), np.zeros(n)

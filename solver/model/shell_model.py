@@ -98,7 +98,6 @@ class Padded:
 
     def __init__(self, Ke, k):
         self.Ke, self.k = Ke, k
-        self.conn = Ke.conn
 
     def __len__(self) -> int:
         return len(self.Ke)

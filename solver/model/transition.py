@@ -151,7 +151,7 @@ def build(spec, mesh) -> Transition:
                          "lattice sites on the region's bounding box (limit 5e7)")
     try:
         E = lat.E or mat.E
-        grid = (square(lo, shape, a, E, mat.nu, mat.rho, mat.thickness or 1.0, mat.kind)
+        grid = (square(lo, shape, a, E, mat.nu, mat.rho, mat.depth, mat.kind)
                 if dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
     except ValueError as e:
         raise SceneError(f"model.lattice: {e}") from None
@@ -165,7 +165,7 @@ def build(spec, mesh) -> Transition:
     full = kept[grid.corners].all(axis=1)
     ci, cj, ck, cell = grid.cell_bonds
     bi, bj, bk = merge(ci[full[cell]], cj[full[cell]], ck[full[cell]], len(grid.points))
-    t = (mat.thickness or 1.0) if mat.kind == "plane_stress" else 1.0
+    t = mat.depth
     share = mat.rho * (t * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
     mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
     kept &= mass > 0                               # a site outside every kept cell: no particle

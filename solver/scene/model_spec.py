@@ -158,6 +158,12 @@ class Material:
         return Elastic(self.E, self.nu, self.rho, self.kind,
                        self.thickness if self.thickness is not None else 1.0)
 
+    @property
+    def depth(self) -> float:
+        """Out-of-plane depth of the body: the thickness in plane stress
+        (default 1 m), 1 m otherwise."""
+        return self.elastic().measure()
+
 
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
 
