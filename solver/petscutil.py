@@ -37,6 +37,54 @@ def unused_options() -> list[str]:
                   if not name.startswith(_LATE) and not opts.used(name))
 
 
+# option names of the objects a partition creates, for "did you mean" (the used
+# names of this run are candidates too)
+KNOWN = ("ksp_type", "ksp_rtol", "ksp_atol", "ksp_divtol", "ksp_max_it", "ksp_monitor",
+         "ksp_view", "ksp_converged_reason", "ksp_norm_type", "ksp_initial_guess_nonzero",
+         "pc_type", "pc_factor_mat_solver_type", "pc_factor_mat_ordering_type",
+         "pc_factor_levels", "pc_factor_shift_type", "pc_gamg_type", "pc_gamg_threshold",
+         "pc_gamg_agg_nsmooths", "pc_hypre_type", "pc_mg_levels", "pc_asm_overlap",
+         "pc_bjacobi_blocks", "sub_pc_type", "sub_ksp_type", "mat_type", "mat_view",
+         "mat_block_size", "vec_type")
+
+
+def check_unused(comm, prefixes):
+    """Refuse (SceneError, on every rank) the PETSc options that no rank has used
+    once set-up has created every object: a misspelled name would otherwise
+    run with the default and warn only at the end.  Options PETSc reads at
+    finalisation (-log_view, ...) are not checked.  Names the nearest known
+    option (-fem_pc_typ -> -fem_pc_type)."""
+    import difflib
+
+    from solver.errors import SceneError
+    opts = init().Options()
+    names = opts.getAll()
+    unused = {n for n in names if not n.startswith(_LATE) and not opts.used(n)}
+    used = {n for n in names if opts.used(n)}
+    if comm.size > 1:
+        unused = set.intersection(*comm.allgather(unused))
+        used = set.union(*comm.allgather(used))
+    if not unused:
+        return
+    known = used | {f"{p}_{k}" for p in prefixes for k in KNOWN} | set(_LATE)
+    lines = []
+    for name in sorted(unused):
+        match = difflib.get_close_matches(name, sorted(known), n=1, cutoff=0.75)
+        head = name.split("_")[0]
+        if "_" in name and not any(name.startswith(f"{p}_") for p in prefixes) and \
+                not any(k.startswith(f"{head}_") for k in known):
+            lines.append(f"-{name} (no partition is named '{head}')")
+        elif match and match[0] == name:
+            owner = next(p for p in prefixes if name.startswith(f"{p}_"))
+            lines.append(f"-{name} (partition '{owner}' creates no object that reads it, e.g. "
+                         "no KSP when it is explicit)")
+        else:
+            lines.append(f"-{name}" + (f" (did you mean -{match[0]}?)" if match else ""))
+    raise SceneError(f"PETSc option{'s' if len(lines) > 1 else ''} {', '.join(lines)} "
+                     f"{'are' if len(lines) > 1 else 'is'} not used by any object of this run "
+                     f"(partition prefixes: {', '.join(p + '_' for p in prefixes)}); nothing ran")
+
+
 def vec_on(array: np.ndarray, comm, size=None):
     """A PETSc Vec sharing the memory of contiguous float64 ``array``."""
     assert array.flags.c_contiguous and array.dtype == np.float64

@@ -34,12 +34,16 @@ def test_prefixed_options_from_an_options_file(tmp_path):
     assert "warning" not in proc.stderr
 
 
-def test_unused_options_are_reported(tmp_path):
+def test_unused_options_are_refused_before_stepping(tmp_path):
+    """A misspelled option or a prefix that names no partition: refused once
+    set-up has built every object and before anything is written, with the
+    nearest known option."""
     proc = run_cli([_short(tmp_path), "-fem_mat_tpye", "baij", "-solid_mat_type", "aij"])
-    assert proc.returncode == 0, proc.stderr
-    warned = [line for line in proc.stderr.splitlines() if line.startswith("warning")]
-    assert len(warned) == 2
-    assert "-fem_mat_tpye" in warned[0] and "-solid_mat_type" in warned[1]
+    assert proc.returncode == 2, proc.stderr
+    line, = proc.stderr.strip().splitlines()
+    assert "-fem_mat_tpye (did you mean -fem_mat_type?)" in line
+    assert "-solid_mat_type (no partition is named 'solid')" in line
+    assert not (tmp_path / "o.h5").exists()
 
 
 def test_every_matrix_type_gives_the_same_answer(tmp_path):
@@ -68,14 +72,16 @@ def test_every_matrix_type_gives_the_same_answer(tmp_path):
 
 def test_unused_options_consider_every_rank(tmp_path):
     """On 2 ranks -dem_mat_type is read only on the dem rank: it is used, not
-    reported; a misspelled option is reported once; PETSc's own rank-0 list
-    is not printed."""
+    refused; a misspelled option is refused once; PETSc's own rank-0 list is
+    not printed."""
     proc = run_cli([_short(tmp_path), "-dem_mat_type", "aij", "-fem_mat_typo", "aij"], n=2,
                    timeout=120)
-    assert proc.returncode == 0, proc.stderr
-    warned = [line for line in proc.stderr.splitlines() if "not used" in line]
-    assert len(warned) == 1 and "-fem_mat_typo" in warned[0]
+    assert proc.returncode == 2, proc.stderr
+    line, = proc.stderr.strip().splitlines()
+    assert "-fem_mat_typo (did you mean -fem_mat_type?)" in line
     assert "Option left" not in proc.stderr and "-dem_mat_type" not in proc.stderr
+    proc = run_cli([_short(tmp_path), "-dem_mat_type", "aij"], n=2, timeout=120)
+    assert proc.returncode == 0, proc.stderr
 
 
 def test_solver_options_give_the_answer_or_are_refused(tmp_path):

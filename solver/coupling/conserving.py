@@ -366,6 +366,23 @@ class Conserving(OwnSides):
             C.residual(C.steps * C.dt, C.u, C.v)
             self.G0 = C.mass[self.rc] * C.A[self.rc] - C.R[self.rc]
 
+    def memory(self) -> dict:
+        """The interface force G_0 (coarse side) and the fine side's reaction r_0
+        as the last step left them: synchronise() recovers both from the states,
+        equal to round-off; the checkpoint keeps them so a restart is bitwise."""
+        out = {}
+        if self.C is not None:
+            out["G0"] = np.array(self.G0, dtype=float)
+        if self.F is not None:
+            out["r0"] = np.array(self.r0, dtype=float)
+        return out
+
+    def restore_memory(self, memory: dict):
+        if self.C is not None and "G0" in memory:
+            self.G0 = np.array(memory["G0"], dtype=float)
+        if self.F is not None and "r0" in memory:
+            self.r0 = np.array(memory["r0"], dtype=float)
+
     def step(self, t0: float):
         """Coarse free step and fine free pass (concurrent on 2 ranks), one
         reduction of the interface system's right-hand side and the fine mean

@@ -70,6 +70,14 @@ class OwnSides:
     def treatments(scene) -> list[str]:
         return ["literal"] * len(scene.partitions)
 
+    def memory(self) -> dict:
+        """What a checkpoint keeps of the scheme beyond its partitions' states
+        (name -> array, this rank's part): none."""
+        return {}
+
+    def restore_memory(self, memory: dict):
+        """Put :meth:`memory`'s arrays (merged over ranks) back after synchronise()."""
+
 
 class GravouilCombescure(OwnSides):
     name = "gc"

@@ -133,6 +133,14 @@ class ConcurrentOverlap:
         for exchange in self.exchanges:
             exchange()
 
+    def memory(self) -> dict:
+        """What a checkpoint keeps of the scheme beyond its partitions' states
+        (name -> array, this rank's part): none."""
+        return {}
+
+    def restore_memory(self, memory: dict):
+        """Put :meth:`memory`'s arrays (merged over ranks) back after synchronise()."""
+
     def step(self, t0: float):
         """One system step from time ``t0``."""
         clocks = self.clocks

@@ -56,7 +56,7 @@ class Heating:
             return
         steps = self.conduction.steps
         self._set(th, count=not first or s > 0)
-        if self.conduction.steps != steps or first:
+        if self.conduction.steps != steps or (first and s == 0):
             self.series["t"].append(s * self.Dt)
             self.series["heating_time"].append(th)
             self.series["max_temperature"].append(float(self.T_node.max()))
@@ -72,6 +72,10 @@ class Heating:
         """After every system step: the thermal forces' work over it."""
         for part in self.parts:
             part.track_thermal_work()
+
+    def restore(self, series: dict):
+        """The heating series of a checkpoint (samples before its system step)."""
+        self.series = {k: list(np.asarray(series[k]).tolist()) for k in self.series if k in series}
 
     def arrays(self) -> dict:
         return {k: np.asarray(v) for k, v in self.series.items()}

@@ -30,20 +30,78 @@ import h5py
 import numpy as np
 
 
-def check_writable(path: str) -> str | None:
+def check_writable(path: str, restart: str | None = None, overwrite: bool = False) -> str | None:
     """Why ``path`` cannot be written (None if it can): checked before stepping,
-    so a long run does not die at the end on a bad output path."""
+    so a long run does not die at the end on a bad output path.  Creates no
+    directory (a refused run leaves nothing behind).  Removes the temporaries
+    of earlier writes of the same file whose process is gone (a run killed
+    while writing).  A fresh run (no ``restart`` of this very file) does not
+    replace a file that holds a checkpoint unless ``overwrite``."""
     target = Path(path)
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        probe = target.with_name(f".{target.name}.check-{os.getpid()}")
-        probe.touch()
-        probe.unlink()
-    except OSError as e:
-        return f"output.file: cannot write {path}: {e.strerror or e}"
     if target.is_dir():
         return f"output.file: {path} is a directory"
+    parent = next((p for p in [target.parent, *target.parent.parents] if p.exists()), Path("."))
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        return f"output.file: cannot write {path}: {parent} is not a writable directory"
+    if parent == target.parent:
+        try:
+            probe = target.with_name(f".{target.name}.check-{os.getpid()}")
+            probe.touch()
+            probe.unlink()
+        except OSError as e:
+            return f"output.file: cannot write {path}: {e.strerror or e}"
+        remove_stale(target)
+    if target.is_file() and not overwrite and not _same(target, restart):
+        step = checkpoint_step(target)
+        if step is not None:
+            return (f"output.file: {path} holds a checkpoint at system step {step}; restart "
+                    f"it with --restart {path}, replace it with --overwrite, or choose another "
+                    "output.file")
     return None
+
+
+def _same(a: Path, b) -> bool:
+    try:
+        return b is not None and a.resolve() == Path(b).resolve()
+    except OSError:
+        return False
+
+
+def checkpoint_step(path: Path) -> int | None:
+    """The system step of the checkpoint ``path`` holds, or None (none, or not ours)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return int(f["checkpoint"].attrs["step"]) if "checkpoint" in f else None
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def remove_stale(target: Path):
+    """Remove ``.NAME.tmp-PID`` / ``.NAME.check-PID`` files of ``target`` whose PID
+    is not a running process (left by a run killed while writing)."""
+    for tmp in target.parent.glob(f".{target.name}.*-*"):
+        kind, _, pid = tmp.name[len(target.name) + 2:].rpartition("-")
+        if kind not in ("tmp", "check") or not pid.isdigit():
+            continue
+        try:
+            os.kill(int(pid), 0)
+            continue                       # a live process is writing it
+        except ProcessLookupError:
+            pass
+        except PermissionError:
+            continue
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+
+
+def dataset(group, name: str, data):
+    """A dataset with HDF5's Fletcher32 checksum (a reader refuses flipped bytes)."""
+    data = np.asarray(data)
+    if data.size and data.dtype != object:
+        return group.create_dataset(name, data=data, fletcher32=True)
+    return group.create_dataset(name, data=data)
 
 
 def write(path: str, result, checkpoint=None) -> None:
@@ -65,19 +123,19 @@ def write(path: str, result, checkpoint=None) -> None:
                 for k in ("t", "displacement", "velocity", "stress", "reference_displacement",
                           "reference_stress"):
                     if k in probe:
-                        g.create_dataset(k, data=np.asarray(probe[k]))
+                        dataset(g, k, probe[k])
                 for k, v in probe.get("attrs", {}).items():
                     g.attrs[k] = v
             g = f.create_group("energy")
             for k, v in result.energy.items():
-                g.create_dataset(k, data=np.asarray(v))
+                dataset(g, k, v)
             if getattr(result, "heat", None) is not None:
                 g = f.create_group("heat")
                 for k, v in result.heat.items():
-                    g.create_dataset(k, data=np.asarray(v))
+                    dataset(g, k, v)
             if getattr(result, "broken", None) is not None:
                 dim = result.broken.shape[1] - 6 if result.broken.size else 0
-                d = f.create_dataset("broken_bonds", data=result.broken)
+                d = dataset(f, "broken_bonds", result.broken)
                 where = ", ".join("xyz"[:dim]) if dim else "midpoint"
                 d.attrs["columns"] = (f"t, {where}, strain, critical strain, temperature, "
                                       "node i, node j")

@@ -7,6 +7,8 @@ What a system step does is the coupling scheme's business
 """
 from __future__ import annotations
 
+import os
+import signal
 import time
 from dataclasses import dataclass, field
 
@@ -38,12 +40,17 @@ def _silent(*_):
 
 
 def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None = None,
-        provenance: dict | None = None) -> RunResult:
+        provenance: dict | None = None, overwrite: bool = False,
+        check_options: bool = False) -> RunResult:
     """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output.
 
     ``restart``: an output file with a checkpoint of this scene; the run goes on
     from there (on any rank count).  ``provenance``: extra root attributes
-    (:mod:`solver.driver.provenance`; versions and commit are always written)."""
+    (:mod:`solver.driver.provenance`; versions and commit are always written).
+    ``overwrite``: a fresh run may replace an output file that holds a
+    checkpoint (refused otherwise).  ``check_options``: PETSc options that no
+    object of the built run uses are refused before stepping (the command
+    line's choice; scripts may set options for other objects of their own)."""
     from mpi4py import MPI
 
     from solver.driver import output
@@ -53,10 +60,11 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     comm = comm or MPI.COMM_WORLD
     rank = comm.rank
     say = log if rank == 0 else _silent
-    problem = comm.bcast(output.check_writable(scene.output_file) if rank == 0 else None)
+    saved = state.read(restart, scene, comm) if restart else None
+    problem = comm.bcast(output.check_writable(scene.output_file, restart, overwrite)
+                         if rank == 0 else None)
     if problem:
         raise SceneError(problem)
-    saved = state.read(restart, scene, comm) if restart else None
     if getattr(scene.reference, "kind", "") == "monolithic":
         problem = None
         if rank == 0:
@@ -96,12 +104,29 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         start = saved["step"]
         state.restore(saved, parts, scheme, guard)
         probes.restore(saved["probes"], start)
+        if heating is not None and saved.get("heat") is not None:
+            heating.restore(saved["heat"])
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
     from solver.driver import provenance as prov
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start, heating)
     report.extra = {"versions": prov.versions(), "commit": prov.commit(), **model_counts(mdl, comm),
                     **(provenance or {})}
+    if check_options:
+        from solver.petscutil import check_unused
+        check_unused(comm, [p.name for p in scene.partitions])
     report.setup_wall = time.perf_counter() - t_start
+    from solver.driver.stop import Stopper
+    # from the first write on, an interrupt is a flag the step loop polls (the
+    # output is kept); a second one stops at once
+    with Stopper(comm, start) as stop:
+        return _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
+
+
+def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start):
+    """The run from its first output on: checkpoint, fields, stepping, the final output."""
+    from solver.driver import output
+    rank, mdl, parts, scheme = comm.rank, asm.model, asm.parts, asm.scheme
+    Dt = scene.system_dt
     spec = scene.output.checkpoint if scene.output else None
     checkpoint = Checkpoint(spec.every, scene, parts, guard, comm, report) if spec else None
     if checkpoint:
@@ -113,15 +138,17 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "",
                              heating=heating)
         fields.write(start * Dt)
+    stop.where = "stepping"
     try:
         failure, done, loop_wall, interrupted = step_loop(
             scene, scheme, probes, guard, say if rank == 0 else None, comm, fields, start,
-            checkpoint, heating)
+            checkpoint, heating, stop)
     finally:
         if fields:
             fields.close()
         if heating:
             heating.destroy()
+    stop.where = "while writing the output"
 
     result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
     if fields and rank == 0:
@@ -139,10 +166,14 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     if rank == 0:
         output.write(scene.output_file, result, checkpoint=final)
     comm.barrier()
+    from solver.driver.stop import Interrupted
     if failure:
-        from solver.driver.stop import Interrupted
         raise (Interrupted if interrupted else RunFailed)(
             f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
+    late = stop.signals()
+    if late:
+        raise Interrupted(f"{scene.name}: interrupted ({late}) after the last system step, "
+                          f"while writing the output; the output is complete: {scene.output_file}")
     return result
 
 
@@ -159,7 +190,7 @@ class Checkpoint:
     def __call__(self, k: int, wall: float):
         from solver.driver import output
         from solver.driver import state
-        data = state.collect(k, self.parts, self.guard, self.comm)
+        data = state.collect(k, self.parts, self.guard, self.comm, self.report.asm.scheme)
         result = self.report.result(k, "running", "", wall)
         if self.comm.rank == 0:
             self.last = (data, self.meta)
@@ -171,7 +202,7 @@ class Checkpoint:
         from solver.driver.state import collect
         if failure:
             return getattr(self, "last", None)
-        data = collect(done, self.parts, self.guard, self.comm)
+        data = collect(done, self.parts, self.guard, self.comm, self.report.asm.scheme)
         return (data, self.meta) if data is not None else None
 
 
@@ -298,7 +329,7 @@ def model_counts(mdl, comm) -> dict:
 
 
 def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, checkpoint=None,
-              heating=None):
+              heating=None, stop=None):
     """Advance system steps from ``start`` to the end, the first guard failure,
     a partition's failure or an interrupt on any rank (all ranks stop at the
     same step, :mod:`solver.driver.stop`); ``checkpoint(k, wall)`` every
@@ -306,6 +337,8 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
 
     Returns (failure message or None, system steps done, stepping wall time,
     interrupted)."""
+    from contextlib import nullcontext
+
     from solver.driver.stop import Stopper, describe
     n_sys, Dt = scene.n_system_steps, scene.system_dt
     progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
@@ -315,7 +348,9 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
     t_loop = last = clock()
     failure, k, interrupted = None, start, False
     failures = scheme.clocks.failures
-    with Stopper(comm, start) as stop:
+    # fault injection for the tests: rank 0 sends itself SIGTERM after this system step
+    kill_at = int(os.environ.get("MTS_SIGTERM_AT_STEP", "-1")) if comm.rank == 0 else -1
+    with (nullcontext(stop) if stop is not None else Stopper(comm, start)) as stop:
         for s in range(start, n_sys):
             try:
                 if heating is not None:
@@ -326,6 +361,8 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
             except Exception as e:              # noqa: BLE001 -- stop together, keep the output
                 stop.fail(s + 1, describe(e))
             k = s + 1
+            if k == kill_at:
+                os.kill(os.getpid(), signal.SIGTERM)
             if failures:
                 stop.fail(k, failures[0])
             if stop.due(k) or (ck_every and k % ck_every == 0):

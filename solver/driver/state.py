@@ -52,8 +52,10 @@ def fingerprint(scene) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:32]
 
 
-def collect(k: int, parts, guard, comm) -> dict | None:
+def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
     """This run's state after ``k`` system steps, merged on rank 0 (None elsewhere)."""
+    memory = scheme.memory() if scheme is not None else {}
+    memories = comm.gather(memory, root=0) if comm.size > 1 else [memory]
     local = []
     for p in parts:
         n = p.n_own
@@ -83,7 +85,11 @@ def collect(k: int, parts, guard, comm) -> dict | None:
                            "steps": m["steps"], "load_keys": keys,
                            "load_values": np.array([m["loads"][int(i)] for i in keys]),
                            "broken": np.array(sorted(m["broken"]), dtype=float)}
-    return {"step": k, "parts": parts_out, "guard": guard.memory()}
+    merged_memory = {}
+    for m in memories:
+        for key, value in m.items():
+            merged_memory.setdefault(key, value)
+    return {"step": k, "parts": parts_out, "guard": guard.memory(), "scheme": merged_memory}
 
 
 def restore(data: dict, parts, scheme, guard):
@@ -106,11 +112,13 @@ def restore(data: dict, parts, scheme, guard):
         if hasattr(p.force, "restore_broken"):
             p.force.restore_broken(saved["broken"])
     scheme.synchronise()
+    scheme.restore_memory(data.get("scheme") or {})
     guard.restore(data["guard"])
 
 
 def write_group(f, data: dict, meta: dict):
     """Write ``data`` (from :func:`collect`) as group /checkpoint of open h5py file ``f``."""
+    from solver.driver.output import dataset
     g = f.create_group("checkpoint")
     g.attrs["format"] = FORMAT
     g.attrs["step"] = data["step"]
@@ -119,14 +127,36 @@ def write_group(f, data: dict, meta: dict):
     for name, part in data["parts"].items():
         pg = g.create_group(f"partitions/{name}")
         for k in ("nodes", "uva", "load_keys", "load_values", "broken"):
-            pg.create_dataset(k, data=part[k])
+            dataset(pg, k, part[k])
         pg.attrs["work"] = part["work"]
         pg.attrs["steps"] = part["steps"]
     gg = g.create_group("guard")
     for k, v in data["guard"]["series"].items():
-        gg.create_dataset(k, data=np.asarray(v, dtype=float))
+        dataset(gg, k, np.asarray(v, dtype=float))
     gg.attrs["initial"] = data["guard"]["initial"]
     gg.attrs["max_work"] = data["guard"]["max_work"]
+    sg = g.create_group("scheme")
+    for k, v in data.get("scheme", {}).items():
+        dataset(sg, k, v)
+    g.attrs["digest"] = attrs_digest(g)
+
+
+def attrs_digest(group) -> str:
+    """sha256 of the checkpoint's scalar attributes (the datasets carry Fletcher32
+    checksums of their own): a flipped step count or work is refused too."""
+    import h5py
+    items = []
+
+    def visit(name, obj):
+        for key in sorted(obj.attrs):
+            if key != "digest":
+                items.append((name, key, np.asarray(obj.attrs[key]).tobytes()))
+    visit("", group)
+    group.visititems(lambda name, obj: visit(name, obj) if isinstance(obj, h5py.Group) else None)
+    h = hashlib.sha256()
+    for name, key, raw in sorted(items):
+        h.update(f"{name}/{key}=".encode() + raw)
+    return h.hexdigest()
 
 
 def read(path: str, scene, comm) -> dict:
@@ -155,6 +185,9 @@ def _read(path: str, scene) -> dict:
             if g.attrs.get("format") != FORMAT:
                 raise SceneError(f"{where}: checkpoint format {g.attrs.get('format')!r}, this "
                                  f"version reads {FORMAT!r}")
+            if g.attrs.get("digest") != attrs_digest(g):
+                raise SceneError(f"{where}: the checkpoint is damaged (its attributes do not "
+                                 "match their checksum); the file is left as it is")
             if g.attrs.get("fingerprint") != fingerprint(scene):
                 raise SceneError(f"{where}: written for scene {g.attrs.get('scene')!r} with other "
                                  "model, partitions, steps or loads than this scene (only "
@@ -163,20 +196,44 @@ def _read(path: str, scene) -> dict:
             if k > scene.n_system_steps:
                 raise SceneError(f"{where}: checkpoint at system step {k} is beyond time.end "
                                  f"({scene.n_system_steps} system steps)")
+
+            def get(group, name):
+                try:
+                    return group[name][()]
+                except OSError as e:             # Fletcher32 mismatch, unreadable chunk
+                    raise SceneError(f"{where}: dataset {group[name].name} is damaged "
+                                     f"({' '.join(str(e).split())[:120]}); the file is left as "
+                                     "it is") from None
             parts = {}
             for name, pg in g["partitions"].items():
-                parts[name] = {k2: pg[k2][()] if k2 in pg else np.zeros(0)
+                parts[name] = {k2: get(pg, k2) if k2 in pg else np.zeros(0)
                                for k2 in ("nodes", "uva", "load_keys", "load_values", "broken")}
                 parts[name].update(work=np.atleast_1d(pg.attrs["work"]).astype(float),
                                    steps=int(pg.attrs["steps"]))
+                if not np.all(np.isfinite(parts[name]["uva"])):
+                    raise SceneError(f"{where}: partition {name!r}'s state in the checkpoint is "
+                                     "not finite")
+            memory = {k2: get(g["scheme"], k2) for k2 in g.get("scheme", {})}
             gg = g["guard"]
-            guard = {"series": {k2: gg[k2][()].tolist() for k2 in gg},
+            guard = {"series": {k2: get(gg, k2).tolist() for k2 in gg},
                      "initial": float(gg.attrs["initial"]),
                      "max_work": float(gg.attrs["max_work"])}
-            probes = {name: (f[f"probes/{name}/displacement"][()], f[f"probes/{name}/velocity"][()],
-                             *((f[f"probes/{name}/stress"][()],) if "stress" in f[f"probes/{name}"]
-                               else ()))
-                      for name in f.get("probes", {})}
+            # the histories of the file run to where it stopped (an interrupted or
+            # failed run goes on after its last checkpoint): keep them to step k
+            probes = {}
+            for name in f.get("probes", {}):
+                pg = f[f"probes/{name}"]
+                series = [get(pg, "displacement"), get(pg, "velocity"),
+                          *((get(pg, "stress"),) if "stress" in pg else ())]
+                if any(x.size < k + 1 for x in series):
+                    raise SceneError(f"{where}: probe {name!r} has {series[0].size} samples, the "
+                                     f"checkpoint is at system step {k}")
+                probes[name] = tuple(x[:k + 1] for x in series)
+            heat = None
+            if "heat" in f and "t" in f["heat"]:
+                hg = f["heat"]
+                keep = np.rint(get(hg, "t") / scene.system_dt) < k   # samples before step k
+                heat = {k2: get(hg, k2)[keep] for k2 in hg}
     except SceneError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as e:
@@ -184,8 +241,5 @@ def _read(path: str, scene) -> dict:
     want = {p.name for p in scene.partitions}
     if set(parts) != want:
         raise SceneError(f"{where}: holds partitions {sorted(parts)}, the scene has {sorted(want)}")
-    for name, pr in probes.items():
-        if pr[0].size != k + 1 or pr[1].size != k + 1:
-            raise SceneError(f"{where}: probe {name!r} has {pr[0].size} samples, the checkpoint "
-                             f"is at system step {k}")
-    return {"step": k, "parts": parts, "guard": guard, "probes": probes}
+    return {"step": k, "parts": parts, "guard": guard, "probes": probes, "heat": heat,
+            "scheme": memory}

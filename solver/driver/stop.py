@@ -5,7 +5,10 @@ A rank never leaves the step loop on its own: a collective exit would leave
 the others waiting in the next exchange.  Instead, a partition that fails
 (a linear solve that does not converge, a PETSc error, anything raised while
 it steps) is marked failed by the scheme, which keeps exchanging; SIGINT and
-SIGTERM set a flag.  :meth:`Stopper.poll` is the one collective that turns
+SIGTERM set a flag.  Before stepping (set-up) :func:`guard_setup`'s handlers
+end the run at once with one line and exit 130 (nothing written); the Stopper
+takes over before the first output is written and keeps the flag until the
+final output is written.  :meth:`Stopper.poll` is the one collective that turns
 these local reasons into a common decision: every system step on one rank, and
 on several ranks every ``cadence`` system steps, chosen after the first steps
 so that a poll comes at least every ~0.2 s of stepping.  A second interrupt
@@ -35,6 +38,22 @@ def describe(error: BaseException) -> str:
     return line if isinstance(error, RunFailed) else f"{type(error).__name__}: {line}"
 
 
+def _interrupt_setup(signum, frame):
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+def guard_setup():
+    """SIGINT and SIGTERM raise KeyboardInterrupt (with the signal's name) in the
+    main thread: set-up ends with one line and exit 130 (:mod:`solver.tools.cli`).
+    Installed first thing and again after PETSc's start-up, which installs
+    handlers of its own."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            signal.signal(sig, _interrupt_setup)
+        except ValueError:                     # not the main thread
+            pass
+
+
 class Stopper:
     def __init__(self, comm, start: int):
         self.comm = comm
@@ -44,6 +63,7 @@ class Stopper:
         self.cadence = 1
         self._t0 = time.perf_counter()
         self._saved = {}
+        self.where = "before stepping"         # what the run was doing, for a second interrupt
 
     # --------------------------------------------------------------- signals
     def __enter__(self):
@@ -61,8 +81,14 @@ class Stopper:
 
     def _on_signal(self, signum, frame):
         if self.signal is not None:            # a second interrupt: stop now
-            abort(self.comm, "interrupted twice: stopped without writing the output", 130)
+            abort(self.comm, f"interrupted twice: stopped at once ({self.where}; the output "
+                             "file keeps what was last written)", 130)
         self.signal = signal.Signals(signum).name
+
+    def signals(self) -> str | None:
+        """Collective: the name of a signal any rank received (None if none)."""
+        names = self.comm.allgather(self.signal) if self.comm.size > 1 else [self.signal]
+        return next((n for n in names if n is not None), None)
 
     # -------------------------------------------------------------- failures
     def fail(self, k: int, message: str):

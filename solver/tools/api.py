@@ -26,12 +26,15 @@ def scene_from_dict(raw: dict):
     return scene.from_dict(raw)
 
 
-def run(scene, comm=None, petsc_options=(), log=None, restart=None):
+def run(scene, comm=None, petsc_options=(), log=None, restart=None, overwrite=False):
     """Run ``scene`` on ``comm`` (default COMM_WORLD); returns a RunResult with
     ``attrs``, ``partitions``, ``probes`` (name -> t, displacement, velocity
     arrays) and ``energy``.  ``petsc_options`` take effect if PETSc was not
-    started yet in this process; ``log``: a print-like callable (default silent)."""
+    started yet in this process; ``log``: a print-like callable (default silent);
+    ``overwrite``: replace an output file that holds a checkpoint (refused
+    otherwise, as on the command line)."""
     from solver.petscutil import init
     from solver.driver.runner import run as _run
     init(list(petsc_options))
-    return _run(scene, comm, log=log or (lambda *a, **k: None), restart=restart)
+    return _run(scene, comm, log=log or (lambda *a, **k: None), restart=restart,
+                overwrite=overwrite)

@@ -13,7 +13,7 @@ import sys
 
 from solver.errors import LaunchError, SceneError, SolverError
 
-USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--restart FILE] [PETSc options]
+USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--restart FILE] [--overwrite] [PETSc options]
        ./run.sh test                          the test suite
        ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 1,2] [--treatments ...] [--dts ...] [--schemes ...]
        ./run.sh plot RESULT.h5 [MORE.h5 ...] [--probe NAME] [-o FILE.png]
@@ -23,14 +23,20 @@ USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--resta
 (python -m solver ... is the same on one process.)
 PETSc options (e.g. -options_file configs/implicit_cg.opts, -log_view, -fem_mat_type baij) go
 to PETSc; every partition's PETSc objects carry the prefix <partition name>_ ;
--exchange_measure_wait times the wait for the slower rank apart from the exchange."""
+-exchange_measure_wait times the wait for the slower rank apart from the exchange.
+--restart FILE goes on from FILE's checkpoint; --overwrite lets a fresh run replace an output
+file that holds a checkpoint (refused otherwise)."""
+
+FLAGS = ("--set", "--restart", "--overwrite", "--help")
 
 LAUNCH_VARS = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS")
 
 
 def split_args(argv):
-    """(scene path, overrides, PETSc options, restart file) from the command line."""
-    scene, overrides, petsc, restart = None, [], [], None
+    """(scene path, overrides, PETSc options, restart file, overwrite) from the
+    command line.  A ``--`` word that is not one of ours is refused here, before
+    anything is built (PETSc's options have one dash)."""
+    scene, overrides, petsc, restart, overwrite = None, [], [], None, False
     it = iter(argv)
     for arg in it:
         if arg == "--restart" or arg.startswith("--restart="):
@@ -44,11 +50,27 @@ def split_args(argv):
             overrides.append(value)
         elif arg.startswith("--set="):
             overrides.append(arg[len("--set="):])
+        elif arg == "--overwrite":
+            overwrite = True
+        elif arg.startswith("--"):
+            raise SceneError(f"unknown option {clip(arg)}{nearest(arg.split('=')[0], FLAGS)} "
+                             "(./run.sh --help lists the forms; PETSc options have one dash)")
         elif scene is None and not arg.startswith("-") and arg.endswith((".yaml", ".yml")):
             scene = arg
         else:
             petsc.append(arg)
-    return scene, overrides, petsc, restart
+    return scene, overrides, petsc, restart, overwrite
+
+
+def clip(text: str, limit: int = 80) -> str:
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
+def nearest(word: str, known) -> str:
+    """'' or ' (did you mean X?)' for the known word closest to ``word``."""
+    import difflib
+    match = difflib.get_close_matches(word, list(known), n=1, cutoff=0.6)
+    return f" (did you mean {match[0]}?)" if match else ""
 
 
 def check_launch(comm):
@@ -117,7 +139,7 @@ def load_on_root(comm, path, overrides):
 
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help", "help"):
+    if not argv or argv[0] in ("-h", "--help", "help") or "--help" in argv:
         print(USAGE)
         return 0 if argv else 2
     if argv[0] == "keys":
@@ -129,9 +151,11 @@ def main(argv=None) -> int:
     if argv[0] == "schemes":
         print_schemes()
         return 0
+    from solver.driver.stop import guard_setup
+    guard_setup()                    # SIGINT/SIGTERM before stepping: one line, exit 130
     rank, comm = 0, None
     try:
-        path, overrides, petsc_args, restart = split_args(argv)
+        path, overrides, petsc_args, restart, overwrite = split_args(argv)
         if path is None:
             raise SceneError("no scene file (*.yaml) among the arguments (./run.sh --help lists "
                              "the forms)")
@@ -141,22 +165,15 @@ def main(argv=None) -> int:
         check_launch(comm)
         scene, effective = load_on_root(comm, path, overrides)
         start_petsc(petsc_args)
+        guard_setup()                # again: PETSc's start-up installed its own handlers
         from solver.driver.runner import run, summary
         from solver.driver import provenance
         result = run(scene, comm, log=print, scene_text=open(path, encoding="utf-8").read(),
-                     restart=restart, provenance=provenance.attrs(effective, petsc_args))
-        # an option counts as used if any rank used it (a partition's options are
-        # read only on its ranks)
-        from solver.petscutil import unused_options
-        unused = set(unused_options())
-        if comm.size > 1:
-            unused = set.intersection(*comm.allgather(unused))
+                     restart=restart, provenance=provenance.attrs(effective, petsc_args),
+                     overwrite=overwrite, check_options=True)
         if rank == 0:
             for line in summary(result, scene.output_file):
                 print(line, flush=True)
-            for name in sorted(unused):
-                print(f"warning: PETSc option {name} was not used (misspelled, or a prefix that "
-                      "names no partition?)", file=sys.stderr, flush=True)
         return 0
     except SolverError as e:
         # errors of the run are raised on every rank alike (the stages agree
@@ -170,8 +187,9 @@ def main(argv=None) -> int:
             comm.Barrier()
             abort(comm, None, 130)
         return e.exit_code
-    except KeyboardInterrupt:
-        return stop_everyone(comm, "interrupted before stepping; no output written", 130)
+    except KeyboardInterrupt as e:
+        name = f" ({e.args[0]})" if e.args else ""
+        return stop_everyone(comm, f"interrupted{name} before stepping; no output written", 130)
     except Exception as e:                      # noqa: BLE001 -- one line, every rank ends
         if os.environ.get("MTS_TRACEBACK"):
             raise
