@@ -27,7 +27,7 @@ def scene_from_dict(raw):
     return _from_dict(raw)
 
 
-def run(scene, comm=None, petsc_options=(), log=None, restart=None):
+def run(scene, comm=None, petsc_options=(), log=None, restart=None, overwrite=False):
     """See :func:`solver.tools.api.run`."""
     from solver.tools.api import run as _run
-    return _run(scene, comm, petsc_options, log, restart)
+    return _run(scene, comm, petsc_options, log, restart, overwrite)
