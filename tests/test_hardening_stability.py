@@ -127,12 +127,27 @@ def test_nothing_to_step_and_non_finite_operators():
         assert fr.omega_max == 0.0 and fr.method == stability.NOTHING
         fr = stability.from_operator(K, np.full(n, 0.5), np.zeros(n, bool), ids, "dem")
         assert fr.omega_max == pytest.approx(2.0, rel=1e-12)      # 2 / 0.5 = 4 = omega^2
+        # omega^2 = 2e300: the Lanczos vectors' norms would overflow unscaled
+        fr = stability.from_operator(K, np.full(n, 1e-300), np.zeros(n, bool), ids, "dem")
+        assert fr.omega_max == pytest.approx(np.sqrt(2e300), rel=1e-12)
         K.destroy()
         vals[5] = np.nan
         K = aij(rows, cols, vals, n, P.COMM_SELF, "t_")
         with pytest.raises(SceneError, match=r"^partition 'dem': M\^-1 K has a NaN"):
             stability.from_operator(K, np.ones(n), np.zeros(n, bool), ids, "dem")
         K.destroy()
+
+
+@pytest.mark.parametrize("thickness,message", [
+    ("1e-200", "error: partition 'plate': M^-1 K has a NaN or infinite entry"),   # masses underflow
+    ("1e-100", "error: partition 'plate': step 1.5e-06 s (ratio 1 x time.dt 1.5e-06 s) is "
+               "unstable, critical step 1.71e-104 s (omega_max 1.169e+104 rad/s, Lanczos)")])
+def test_absurdly_thin_shells_are_refused_in_one_line(thickness, message, tmp_path):
+    """Rotary inertia ~ t^3: at t = 1e-100 m omega_max is 1e104 rad/s (estimated
+    without overflow), at 1e-200 m the masses underflow to 0."""
+    line = refused(ROOT / "configs" / "plate_shell.yaml",
+                   [f"model.material.thickness={thickness}", "time.end=3e-6"], tmp_path)
+    assert line.startswith(message), line
 
 
 def test_seconds_print_enough_digits_to_differ():

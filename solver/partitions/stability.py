@@ -90,11 +90,17 @@ def estimate(apply, x0, n_free: int, ger: float, comm, name: str) -> Frequency:
     """omega_max from Lanczos on ``apply`` (``n_free`` free DOFs in all; start
     rows ``x0``), capped by the Gershgorin bound ``ger`` of lambda_max."""
     from solver.partitions import lanczos
+    if not np.isfinite(ger):
+        raise non_finite(name)
+    if ger == 0.0:
+        return Frequency(0.0, "Gershgorin bound")            # no stiffness at all
     k = lanczos.steps(n_free, LANCZOS_EPS, LANCZOS_FAILURE)
     with np.errstate(all="ignore"):
-        theta, done = lanczos.largest(apply, x0, min(k, n_free), comm)
+        # on A / ger (eigenvalues in [0, 1]): no overflow for any finite operator
+        theta, done = lanczos.largest(lambda q: apply(q) / ger, x0, min(k, n_free), comm)
     if not np.isfinite(theta):
         raise non_finite(name)
+    theta *= ger
     lam = theta if done < k else theta / (1 - LANCZOS_EPS)    # fewer: the Krylov space is all
     if lam >= ger:
         return Frequency(float(np.sqrt(ger)), "Gershgorin bound")
