@@ -385,10 +385,12 @@ def largest_stable_ratio(scene, freqs) -> tuple[int | None, str | None]:
             return 0, p.name
     fr = freqs[fem.name][0]
     crit = verdict(scene, fem, fr)[0]
-    top = int(min(crit / scene.time.dt, 1e6)) + 1
-    need, _ = damping_need(scene, freqs)
-    for ratio in range(top, 0, -1):
-        if verdict(scene, replace(fem, ratio=ratio), fr)[1] is None and (
-                ratio == 1 or scene.damping.beta >= need * (1 - 1e-12)):
-            return ratio, None
+    damped = scene.damping.beta >= damping_need(scene, freqs)[0] * (1 - 1e-12)
+    if not np.isfinite(crit):                      # the FE side steps nothing
+        return (None if damped else 1), None
+    # the FE verdict is monotone in the ratio: the largest one is floor(crit / dt) up to rounding
+    top = int(crit / scene.time.dt) + 1
+    for ratio in range(top, max(top - 3, 0), -1):
+        if verdict(scene, replace(fem, ratio=ratio), fr)[1] is None:
+            return (ratio if damped or ratio == 1 else 1), None
     return 0, None
