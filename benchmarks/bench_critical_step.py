@@ -153,7 +153,8 @@ def main(argv=None):
     import json
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="10,18,25", help="cells per side of the hex blocks")
-    ap.add_argument("--big", type=int, default=47, help="cells per side of the set-up case (0: none)")
+    ap.add_argument("--big", type=int, default=47,
+                    help="cells per side of the set-up case (0: none)")
     ap.add_argument("--no-arpack-big", action="store_true", help="skip ARPACK on the big block")
     ap.add_argument("--no-configs", action="store_true", help="skip the configs' meshes")
     ap.add_argument("--rows", default="results/bench_critical_step.json",
@@ -186,9 +187,10 @@ def main(argv=None):
              "`python benchmarks/bench_critical_step.py` (parts can run separately: rows are",
              "merged through `--rows`). omega_max of M^-1/2 K M^-1/2 of each partition's",
              "operator; columns: estimate / reference - 1 (reference: ARPACK at tol 1e-13 up",
-             "to 60,000 DOF; above, the Lanczos result itself), and CPU seconds of each estimate alone (the numpy Lanczos",
-             "includes its COO assembly; the PETSc one its Gershgorin cap; the matrix",
-             "assembly itself is excluded).", "",
+             "to 60,000 DOF; above, the Lanczos result itself), and CPU seconds of each",
+             "estimate alone (the numpy Lanczos includes its COO assembly, the PETSc one its",
+             "Gershgorin cap; the matrix assembly itself is excluded; CPU rather than wall",
+             "seconds, so that a shared machine's load does not count).", "",
              "| case | DOF | reference | omega_max [rad/s] | Lanczos before PETSc | Lanczos on "
              "the PETSc operator (result) | Gershgorin | former ARPACK | Lanczos PETSc [s] | "
              "Lanczos numpy [s] | Gershgorin [s] | former ARPACK [s] |",

@@ -1,4 +1,4 @@
-"""The critical-step estimate (solver/partitions/stability.py, lanczos.py) and the guard's messages."""
+"""The critical-step estimate (stability.py, lanczos.py) and the guard's messages."""
 import re
 import sys
 import warnings

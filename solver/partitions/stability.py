@@ -39,7 +39,7 @@ from solver.model.arrays import dof_masses
 
 EXACT_LIMIT = 300        # dense eigenvalues up to here
 DENSE_LIMIT = 3000       # dense eigenvalues when Lanczos does not converge, up to here
-PREBUILD_LIMIT = 20000   # Lanczos on rank 0 before PETSc up to here; on the assembled operator above
+PREBUILD_LIMIT = 20000   # Lanczos on rank 0 before PETSc up to here; on the PETSc operator above
 LANCZOS_EPS = 2e-3       # lambda_max is estimated as theta / (1 - LANCZOS_EPS) ...
 LANCZOS_FAILURE = 1e-6   # ... after the steps that make it too low less likely than this
 NOTHING = "nothing to step"
@@ -86,9 +86,11 @@ def scales(mass, still, diag, name) -> np.ndarray:
         return np.where(free & good, 1.0 / np.sqrt(np.where(good, mass, 1.0)), 0.0)
 
 
-def estimate(apply, x0, n_free: int, ger: float, comm, name: str) -> Frequency:
-    """omega_max from Lanczos on ``apply`` (``n_free`` free DOFs in all; start
-    rows ``x0``), capped by the Gershgorin bound ``ger`` of lambda_max."""
+def estimate(scaled, x0, n_free: int, ger: float, comm, name: str) -> Frequency:
+    """omega_max from Lanczos on ``scaled(ger)``, a function applying A / ger
+    (eigenvalues in [0, 1]: no overflow for any finite operator), ``ger`` the
+    Gershgorin bound of lambda_max, which caps the estimate; ``n_free`` free
+    DOFs in all, start rows ``x0``."""
     from solver.partitions import lanczos
     if not np.isfinite(ger):
         raise non_finite(name)
@@ -96,8 +98,7 @@ def estimate(apply, x0, n_free: int, ger: float, comm, name: str) -> Frequency:
         return Frequency(0.0, "Gershgorin bound")            # no stiffness at all
     k = lanczos.steps(n_free, LANCZOS_EPS, LANCZOS_FAILURE)
     with np.errstate(all="ignore"):
-        # on A / ger (eigenvalues in [0, 1]): no overflow for any finite operator
-        theta, done = lanczos.largest(lambda q: apply(q) / ger, x0, min(k, n_free), comm)
+        theta, done = lanczos.largest(scaled(ger), x0, min(k, n_free), comm)
     if not np.isfinite(theta):
         raise non_finite(name)
     theta *= ger
@@ -139,8 +140,8 @@ def omega_max(block_sets, held, mass: np.ndarray, dofmap, name: str = "?") -> Fr
     n_free = int(np.count_nonzero(s))
     if n > EXACT_LIMIT and n_free > EXACT_LIMIT:
         ger = float(abs(A).sum(axis=1).max())
-        return estimate(A.dot, lanczos.start(dofmap.dofs(held)) * (s > 0), n_free, ger, None,
-                        name)
+        return estimate(lambda g: (A / g).dot, lanczos.start(dofmap.dofs(held)) * (s > 0),
+                        n_free, ger, None, name)
     free = np.flatnonzero(s)
     lam = float(np.linalg.eigvalsh(A[free][:, free].toarray())[-1])
     return Frequency(float(np.sqrt(max(lam, 0.0))), "exact")
@@ -169,12 +170,16 @@ def from_operator(Kneg, mass: np.ndarray, still: np.ndarray, ids: np.ndarray,
     x, y = np.zeros(mass.size), np.zeros(mass.size)
     X, Y = vec_on(x, Kneg.getComm()), vec_on(y, Kneg.getComm())
 
-    def apply(q):
-        np.multiply(s, q, out=x)
-        Kneg.mult(X, Y)
-        return -s * y
+    def scaled(g):
+        t = -s / g
+
+        def apply(q):            # s K s q / g = -(s / g) Kneg (s q)
+            np.multiply(s, q, out=x)
+            Kneg.mult(X, Y)
+            return t * y
+        return apply
     try:
-        return estimate(apply, lanczos.start(ids) * (s > 0), n_free, ger, comm, name)
+        return estimate(scaled, lanczos.start(ids) * (s > 0), n_free, ger, comm, name)
     finally:
         X.destroy()
         Y.destroy()
