@@ -51,8 +51,9 @@ def test_non_finite_state_stops_the_run(tmp_path):
 
 @pytest.mark.parametrize("name", ["bar3d", "metamaterial"])
 def test_lanczos_estimate_is_the_exact_omega_raised_by_its_margin(name, monkeypatch):
-    """Above EXACT_LIMIT DOFs omega_max comes from ARPACK's Lanczos: never below
-    the dense eigenvalue, and within the stated margin above it."""
+    """Above EXACT_LIMIT DOFs omega_max comes from Lanczos (or the Gershgorin
+    bound where that is lower): never below the dense eigenvalue, and within
+    the stated margin above it."""
     from conftest import raw_scene
     from solver.coupling import overlap
     from solver.model import arrays
@@ -71,6 +72,6 @@ def test_lanczos_estimate_is_the_exact_omega_raised_by_its_margin(name, monkeypa
         monkeypatch.setattr(stability, "EXACT_LIMIT", 10**9)
         exact = stability.omega_max(blocks, held, mass, dm)
         monkeypatch.undo()
-        assert fast.method == "Lanczos" and exact.method == "exact"
+        assert fast.method in ("Lanczos", "Gershgorin bound") and exact.method == "exact"
         ratio = fast.omega_max / exact.omega_max
-        assert 1.0 <= ratio <= 1.0 + 2 * stability.LANCZOS_MARGIN, (spec.name, ratio)
+        assert 1.0 <= ratio <= 1 / np.sqrt(1 - stability.LANCZOS_EPS) + 1e-9, (spec.name, ratio)

@@ -110,7 +110,8 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
     del graph
     check_large(scene, parts, freqs, comm, say)
     damping = stability.transition_damping(scene, freqs)
-    refuse(scene, [damping] if damping else [], say, freqs)
+    refuse(scene, [damping] if damping else [], say, freqs,
+           dropped="the transition scheme runs without the damping it needs")
     return Partitions(layouts, assignment, dists, parts, freqs, mdl)
 
 
@@ -126,31 +127,39 @@ def check_stability(scene, mdl, layouts, ids):
     return freqs, problems
 
 
-def refuse(scene, problems, say, freqs=None, sides=None):
-    """Stop on unstable steps (guard.stable_step) or warn; with ``freqs``, warn
-    about coupled implicit steps beyond the measured limit.  ``sides``: the
-    critical steps known so far, named in a transition scheme's refusal."""
+def refuse(scene, problems, say, freqs=None, sides=None, dropped="running anyway"):
+    """Stop on unstable steps (guard.stable_step) or warn (``dropped``: what
+    running anyway gives up); with ``freqs``, warn about coupled implicit steps
+    beyond the measured limit.  ``sides``: the critical steps known so far,
+    named in a transition scheme's refusal."""
     if problems and scene.coupling.scheme == "transition" and sides:
         problems = [p + "; " + transition_limits(scene, sides) for p in problems]
     if problems and scene.guard.stable_step:
         raise StabilityError(problems[0])
     for problem in dict.fromkeys(problems):
-        say(f"warning: {problem}; guard.stable_step is false, running anyway")
+        say(f"warning: {problem}; guard.stable_step is false: {dropped}")
     if freqs is not None:
         for warning in coupled_step_warnings(scene, [{n: c for n, (_, c) in freqs.items()}]):
             say(f"warning: {warning}")
 
 
 def transition_limits(scene, freqs) -> str:
-    """Both sides' critical steps and the largest stable FE step ratio."""
-    dt = scene.time.dt
+    """Both sides' critical steps and the largest FE step ratio the guard
+    accepts at time.dt (stability.largest_stable_ratio: the same rules that refuse)."""
+    dt, = stability.seconds(scene.time.dt)
     out = []
+    ratio, blocker = stability.largest_stable_ratio(scene, freqs)
     for p in scene.partitions:
         crit = freqs.get(p.name, (None, None))[1]
-        if crit is not None:
-            out.append(f"{p.name} critical step {crit:.4g} s" + (
-                f" (largest stable ratio {int(crit / dt * (1 - 1e-12))} at time.dt {dt:.4g} s)"
-                if p.method == "fem" else ""))
+        if crit is None:
+            continue
+        text = f"{p.name} critical step {stability.seconds(crit)[0]} s"
+        if p.method == "fem" and ratio:
+            text += f" (largest stable ratio {ratio} at time.dt {dt} s)"
+        elif p.method == "fem" and ratio == 0:
+            text += f" (no stable ratio at time.dt {dt} s" + (
+                f": partition '{blocker}' is unstable at it)" if blocker else ")")
+        out.append(text)
     return "transition zone: " + ", ".join(out)
 
 
@@ -202,8 +211,9 @@ def coupled_step_warnings(scene, crit_by_rank) -> list[str]:
     for p in scene.partitions:
         dt = p.ratio * scene.time.dt
         if p.integrator == "implicit" and dt > COUPLED_IMPLICIT_STEP * limit:
-            out.append(f"implicit partition '{p.name}' steps {dt:.4g} s, {dt / limit:.2f} x the "
-                       f"critical step {limit:.4g} s of the explicit partitions it is coupled to; "
+            step, critical = stability.seconds(dt, limit)
+            out.append(f"implicit partition '{p.name}' steps {step} s, {dt / limit:.2f} x the "
+                       f"critical step {critical} s of the explicit partitions it is coupled to; "
                        f"coupled schemes have been found unstable beyond ~{COUPLED_IMPLICIT_STEP}x "
                        "(the energy guard stops a blow-up)")
     return out

@@ -1,17 +1,33 @@
 """Highest natural frequency of a partition and the explicit step guard.
 
 Explicit Newmark (any beta) and velocity Verlet are stable for
-``omega_max * dt < 2``.  For up to ``EXACT_LIMIT`` DOFs the frequency is the
-exact largest eigenvalue of M^-1/2 K M^-1/2 (dense symmetric solve); up to
-``LANCZOS_LIMIT`` it is a Lanczos estimate of the same eigenvalue (ARPACK through
-scipy on the sparse matrix, converged to ``LANCZOS_TOL`` and raised by
-``LANCZOS_MARGIN``: 25 ms instead of 2.5 s at 3000 DOF), both known before any
-PETSc object exists;
-beyond that it is the Gershgorin bound of the
-same matrix, taken from the partition's assembled operator (still before
-stepping), which is never below the true value, so the guard stays on the
-safe side.  The operator is the one
-the partition steps: its cells (fem) or its bonds and overlap cells (dem).
+``omega_max * dt < 2``.  omega_max^2 is the largest eigenvalue lambda_max of
+A = M^-1/2 K M^-1/2 (lumped M: node masses, shell rotary inertias; held DOFs
+drop out) for the operator the partition steps: its cells (fem) or its bonds
+and overlap cells (dem).
+
+- Up to ``EXACT_LIMIT`` DOFs: the exact eigenvalue (dense symmetric solve).
+- Up to ``PREBUILD_LIMIT``: Lanczos (:mod:`solver.partitions.lanczos`) on the
+  sparse matrix on rank 0, before any PETSc object exists, so an unstable
+  step is refused before anything is built.
+- Above: the same Lanczos on the partition's assembled PETSc operator, right
+  after assembly, on all of its ranks (MatMult; the start vector is a
+  function of the model DOF ids, so any rank count gives the same value to
+  round-off).
+
+The Lanczos estimate is theta / (1 - ``LANCZOS_EPS``) after as many steps as
+make theta < (1 - LANCZOS_EPS) lambda_max less likely than
+``LANCZOS_FAILURE`` (a proven bound for a random start that holds for any
+spectrum; about 210-240 steps from 10^3 to 10^6 DOF), theta the largest
+Ritz value, which is never above lambda_max.  So omega_max is about
+LANCZOS_EPS / 2 = 0.1 % above the true value (measured:
+benchmarks/bench_critical_step.py, docs/bench_critical_step.md), against up
+to a third for the Gershgorin bound of A, which caps it (never below the
+true value; it is what an estimate is where Lanczos runs into a NaN).
+
+A partition with no free DOF has nothing to step (omega_max 0, no critical
+step); an operator with a NaN or infinite entry has no critical step and is
+refused (SceneError naming the partition).
 """
 from __future__ import annotations
 
@@ -23,62 +39,155 @@ from solver.model.arrays import dof_masses
 
 EXACT_LIMIT = 300        # dense eigenvalues up to here
 DENSE_LIMIT = 3000       # dense eigenvalues when Lanczos does not converge, up to here
-LANCZOS_LIMIT = 300000   # scipy's Lanczos (before PETSc) up to here; assembled Gershgorin above
-LANCZOS_TOL = 1e-10      # ARPACK's relative accuracy of the Ritz value
-LANCZOS_MARGIN = 1e-6    # the estimate is raised by this fraction, so it is never below
+PREBUILD_LIMIT = 20000   # Lanczos on rank 0 before PETSc up to here; on the PETSc operator above
+LANCZOS_EPS = 2e-3       # lambda_max is estimated as theta / (1 - LANCZOS_EPS) ...
+LANCZOS_FAILURE = 1e-6   # ... after the steps that make it too low less likely than this
+NOTHING = "nothing to step"
 
 
 @dataclass(frozen=True)
 class Frequency:
     omega_max: float     # rad/s
-    method: str          # "exact" or "Gershgorin bound"
+    method: str          # "exact", "Lanczos", "Gershgorin bound" or NOTHING
 
     def critical_step(self, omega_h: float = 2.0) -> float:
         """Largest stable step for an integrator whose limit is ``omega_h``."""
         return omega_h / self.omega_max if self.omega_max > 0 else float("inf")
 
 
-def omega_max(block_sets, held, mass: np.ndarray, dofmap) -> Frequency:
+def seconds(*values: float, digits: int = 4) -> list[str]:
+    """``values`` [s] with ``digits`` significant digits, more (up to 10) until
+    values that differ print differently: a step and its critical step never
+    read the same."""
+    for d in range(digits, 11):
+        out = [f"{v:.{d}g}" for v in values]
+        if len({o for o in out}) == len(set(values)):
+            break
+    return out
+
+
+def non_finite(name: str):
+    from solver.errors import SceneError
+    return SceneError(f"partition '{name}': M^-1 K has a NaN or infinite entry (a mass or "
+                      "stiffness beyond floating point, e.g. a near-zero or non-finite thickness, "
+                      "E or density), so it has no critical step; check the material and the "
+                      "cell sizes")
+
+
+def scales(mass, still, diag, name) -> np.ndarray:
+    """M^-1/2 on the free DOFs, 0 on the held ones (and on massless DOFs
+    without stiffness, which nothing moves); a free DOF that has stiffness but
+    no positive finite mass is refused."""
+    free = ~np.asarray(still, bool)
+    good = np.isfinite(mass) & (mass > 0)
+    if np.any(free & ~good & (diag != 0)) or not np.all(np.isfinite(diag[free])):
+        raise non_finite(name)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(free & good, 1.0 / np.sqrt(np.where(good, mass, 1.0)), 0.0)
+
+
+def estimate(scaled, x0, n_free: int, ger: float, comm, name: str) -> Frequency:
+    """omega_max from Lanczos on ``scaled(ger)``, a function applying A / ger
+    (eigenvalues in [0, 1]: no overflow for any finite operator), ``ger`` the
+    Gershgorin bound of lambda_max, which caps the estimate; ``n_free`` free
+    DOFs in all, start rows ``x0``."""
+    from solver.partitions import lanczos
+    if not np.isfinite(ger):
+        raise non_finite(name)
+    if ger == 0.0:
+        return Frequency(0.0, "Gershgorin bound")            # no stiffness at all
+    k = lanczos.steps(n_free, LANCZOS_EPS, LANCZOS_FAILURE)
+    with np.errstate(all="ignore"):
+        theta, done = lanczos.largest(scaled(ger), x0, min(k, n_free), comm)
+    if not np.isfinite(theta):
+        raise non_finite(name)
+    theta *= ger
+    lam = theta if done < k else theta / (1 - LANCZOS_EPS)    # fewer: the Krylov space is all
+    if lam >= ger:
+        return Frequency(float(np.sqrt(ger)), "Gershgorin bound")
+    return Frequency(float(np.sqrt(max(lam, 0.0))), "Lanczos")
+
+
+def omega_max(block_sets, held, mass: np.ndarray, dofmap, name: str = "?") -> Frequency | None:
     """Largest omega of K x = omega^2 M x for the element ``block_sets`` (global
     node ids) over ``held`` nodes (DOFs per ``dofmap``, the model's) and lumped
-    ``mass`` per held DOF."""
+    ``mass`` per held DOF (inf: held still); None above PREBUILD_LIMIT DOFs
+    (then :func:`assembled` decides once the operator exists)."""
+    from scipy.sparse import coo_matrix
+
     from solver.model.dofmap import DofMap
+    from solver.partitions import lanczos
     from solver.partitions.assembly import triplets
     n = mass.size
-    if n == 0 or not any(len(c) for c, _ in block_sets):
-        return Frequency(0.0, "exact")
-    if n <= LANCZOS_LIMIT:
-        local = np.full(int(held.max()) + 1, -1, dtype=np.int64)
-        local[held] = np.arange(held.size)
-        rows, cols, vals = triplets([(local[c], k) for c, k in block_sets],
-                                    DofMap(dofmap.counts[held]))
-        s = 1.0 / np.sqrt(mass)      # fixed DOFs carry infinite mass: their rows drop out
-        if n > EXACT_LIMIT:
-            lam = _lanczos(rows, cols, vals * s[rows] * s[cols], n)
-            if lam is not None:
-                return Frequency(float(np.sqrt(max(lam, 0.0)) * (1 + LANCZOS_MARGIN)), "Lanczos")
-            if n > DENSE_LIMIT:
-                return None          # not converged: the Gershgorin bound of the operator
-        A = np.zeros((n, n))
-        np.add.at(A, (rows, cols), vals * s[rows] * s[cols])
-        lam = float(np.linalg.eigvalsh(A)[-1])
-        return Frequency(float(np.sqrt(max(lam, 0.0))), "exact")
-    return None                      # larger: from the assembled operator (gershgorin)
-
-
-def _lanczos(rows, cols, vals, n):
-    """Largest eigenvalue of the symmetric COO matrix by ARPACK's Lanczos, or
-    None if it does not converge (the caller then solves densely)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.linalg import ArpackNoConvergence, eigsh
-    A = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
-    try:
-        lam = eigsh(A, k=1, which="LA", tol=LANCZOS_TOL, ncv=min(n - 1, 40),
-                    v0=np.random.default_rng(0).standard_normal(n), maxiter=20 * n,
-                    return_eigenvectors=False)
-    except ArpackNoConvergence:
+    still = np.isinf(mass) & (mass > 0)
+    if n == 0 or still.all() or not any(len(c) for c, _ in block_sets):
+        return Frequency(0.0, NOTHING)
+    if n > PREBUILD_LIMIT:
         return None
-    return float(lam[0])
+    local = np.full(int(held.max()) + 1, -1, dtype=np.int64)
+    local[held] = np.arange(held.size)
+    rows, cols, vals = triplets([(local[c], k) for c, k in block_sets],
+                                DofMap(dofmap.counts[held]))
+    with np.errstate(all="ignore"):
+        diag = np.bincount(rows[rows == cols], weights=vals[rows == cols], minlength=n)
+        s = scales(mass, still, diag, name)
+        vals = vals * s[rows] * s[cols]
+    if not np.all(np.isfinite(vals)):
+        raise non_finite(name)
+    if not s.any():
+        return Frequency(0.0, NOTHING)
+    A = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+    n_free = int(np.count_nonzero(s))
+    if n > EXACT_LIMIT and n_free > EXACT_LIMIT:
+        ger = float(abs(A).sum(axis=1).max())
+        return estimate(lambda g: (A / g).dot, lanczos.start(dofmap.dofs(held)) * (s > 0),
+                        n_free, ger, None, name)
+    free = np.flatnonzero(s)
+    lam = float(np.linalg.eigvalsh(A[free][:, free].toarray())[-1])
+    return Frequency(float(np.sqrt(max(lam, 0.0))), "exact")
+
+
+def from_operator(Kneg, mass: np.ndarray, still: np.ndarray, ids: np.ndarray,
+                  name: str) -> Frequency:
+    """omega_max from a partition's assembled operator ``Kneg`` (= -K; this
+    rank's rows, model DOF ids ``ids``; collective): Lanczos with MatMult."""
+    from solver.partitions import lanczos
+    from solver.petscutil import vec_on
+    comm = Kneg.getComm().tompi4py()
+    diag = -Kneg.getDiagonal().getArray()
+    error = None
+    try:
+        s = scales(mass, still, diag, name)
+    except Exception as e:           # noqa: BLE001 -- every rank learns it, then raises
+        error, s = e, np.zeros(mass.size)
+    errors = [e for e in comm.allgather(error) if e is not None]
+    if errors:
+        raise errors[0]
+    if not comm.allreduce(bool(s.any()), op=_or()):
+        return Frequency(0.0, NOTHING)
+    n_free = comm.allreduce(int(np.count_nonzero(s)))
+    ger = gershgorin(Kneg, mass, s == 0).omega_max ** 2
+    x, y = np.zeros(mass.size), np.zeros(mass.size)
+    X, Y = vec_on(x, Kneg.getComm()), vec_on(y, Kneg.getComm())
+
+    def scaled(g):
+        t = -s / g
+
+        def apply(q):            # s K s q / g = -(s / g) Kneg (s q)
+            np.multiply(s, q, out=x)
+            Kneg.mult(X, Y)
+            return t * y
+        return apply
+    try:
+        return estimate(scaled, lanczos.start(ids) * (s > 0), n_free, ger, comm, name)
+    finally:
+        X.destroy()
+        Y.destroy()
+
+
+def _or():
+    from mpi4py import MPI
+    return MPI.LOR
 
 
 ROWS_PER_CHUNK = 60000      # rows of the operator scaled at a time by gershgorin
@@ -92,7 +201,8 @@ def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
     from solver.petscutil import init
     P = init()
     comm = Kneg.getComm().tompi4py()
-    s = np.where(fixed, 0.0, 1.0 / np.sqrt(mass))
+    with np.errstate(divide="ignore"):
+        s = np.where(fixed | ~(mass > 0), 0.0, 1.0 / np.sqrt(np.where(mass > 0, mass, 1.0)))
     bs = Kneg.getBlockSize()
     lo, hi = Kneg.getOwnershipRange()
     step = max(bs, ROWS_PER_CHUNK // bs * bs)
@@ -125,8 +235,8 @@ def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
 def side(scene, spec, model, held, build, note):
     """A partition built by a scheme that lays out its own sides (gc,
     conserving): the dense check on ``model``'s blocks of ``held``, then
-    ``build()``, and for partitions too large for the dense check the bound
-    from the assembled operator.  Returns (partition, (Frequency, critical
+    ``build()``, and for partitions too large for the check before building
+    the estimate from the assembled operator.  Returns (partition, (Frequency, critical
     step)); an unstable step raises StabilityError, ``note`` appended."""
     from solver.errors import StabilityError
     fr, crit, problem = check(scene, spec, model, held)
@@ -145,7 +255,7 @@ def assembled(scene, part):
     still = part.fixed_dofs
     if coupled_fe(scene, part.spec):                    # the core particles held
         still = still | (np.arange(still.size) >= part.n_own)
-    fr = gershgorin(part.Kneg, part.mass, still)
+    fr = from_operator(part.Kneg, part.mass, still, part.held_dofs, part.name)
     if part.method == "dem":
         fr = with_contact(fr, part.force_model, np.where(still, np.inf, part.mass))
     return (fr, *verdict(scene, part.spec, fr))
@@ -190,7 +300,7 @@ def check(scene, spec, model, held, n_owned=None):
     if coupled_fe(scene, spec) and n_owned is not None:
         still = still | (np.arange(still.size) >= dm.count(held[:n_owned]))
     mass = np.where(still, np.inf, dof_masses(model, held))
-    fr = omega_max(blocks, held, mass, dm)
+    fr = omega_max(blocks, held, mass, dm, spec.name)
     if fr is None:
         return None, None, None      # decided once the operator exists (verdict)
     if spec.method == "dem":
@@ -230,8 +340,10 @@ def verdict(scene, spec, fr: Frequency):
     problem = None
     if fr.omega_max * dt >= limit:
         why = (f"; the transition scheme keeps omega_max * fdt < {limit:.3g}" if coupled else "")
-        problem = (f"partition '{spec.name}': step {dt:.4g} s (ratio {spec.ratio} x time.dt "
-                   f"{scene.time.dt:.4g} s) is unstable, critical step {crit:.4g} s "
+        step, critical = seconds(dt, crit)
+        base, = seconds(scene.time.dt)
+        problem = (f"partition '{spec.name}': step {step} s (ratio {spec.ratio} x time.dt "
+                   f"{base} s) is unstable, critical step {critical} s "
                    f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}{why}); reduce time.dt or "
                    "the ratio")
     return crit, problem
@@ -242,11 +354,7 @@ def transition_damping(scene, freqs):
     damping gives less than TRANSITION_XI at the dem partition's omega_max, or None."""
     if scene.coupling.scheme != "transition" or scene.system_ratio == 1:
         return None
-    dem = next(p for p in scene.partitions if p.method == "dem")
-    fr = freqs.get(dem.name, (None,))[0]
-    if fr is None or fr.omega_max <= 0:
-        return None
-    need = 2 * TRANSITION_XI / fr.omega_max
+    need, fr = damping_need(scene, freqs)
     if scene.damping.beta >= need * (1 - 1e-12):
         return None
     return (f"damping.beta: {scene.damping.beta:g} s: the transition scheme sub-cycles (FE step "
@@ -254,3 +362,40 @@ def transition_damping(scene, freqs):
             f"damping ratio >= {TRANSITION_XI:g} at the DEM's highest frequency "
             f"{fr.omega_max:.4g} rad/s; without it the sub-cycled coupling is weakly unstable "
             "(docs/transition.md)")
+
+
+def damping_need(scene, freqs):
+    """(the damping.beta a sub-cycled transition scheme needs [s], the dem
+    partition's Frequency); 0 where the dem frequency is unknown or 0."""
+    dem = next(p for p in scene.partitions if p.method == "dem")
+    fr = freqs.get(dem.name, (None,))[0]
+    if fr is None or fr.omega_max <= 0:
+        return 0.0, fr
+    return 2 * TRANSITION_XI / fr.omega_max, fr
+
+
+def largest_stable_ratio(scene, freqs) -> tuple[int | None, str | None]:
+    """(the largest FE step ratio of a transition scene at its time.dt that the
+    guard accepts, the partition that no FE ratio makes stable or None), by the
+    rules that decide: the FE side's :func:`verdict` at that ratio, the other
+    partitions' verdicts, and above ratio 1 the damping that sub-cycling needs
+    (:func:`transition_damping`).  Ratio 0: none; None: not known yet (a
+    frequency still to be computed)."""
+    from dataclasses import replace
+    fem = next(p for p in scene.partitions if p.method == "fem")
+    if any(freqs.get(p.name, (None,))[0] is None for p in scene.partitions):
+        return None, None
+    for p in scene.partitions:
+        if p is not fem and verdict(scene, p, freqs[p.name][0])[1]:
+            return 0, p.name
+    fr = freqs[fem.name][0]
+    crit = verdict(scene, fem, fr)[0]
+    damped = scene.damping.beta >= damping_need(scene, freqs)[0] * (1 - 1e-12)
+    if not np.isfinite(crit):                      # the FE side steps nothing
+        return (None if damped else 1), None
+    # the FE verdict is monotone in the ratio: the largest one is floor(crit / dt) up to rounding
+    top = int(crit / scene.time.dt) + 1
+    for ratio in range(top, max(top - 3, 0), -1):
+        if verdict(scene, replace(fem, ratio=ratio), fr)[1] is None:
+            return (ratio if damped or ratio == 1 else 1), None
+    return 0, None

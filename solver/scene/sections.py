@@ -231,7 +231,10 @@ class Damping:
 
 @dataclass(frozen=True)
 class Guard:
-    stable_step: bool = key("refuse explicit steps with omega_max*dt >= 2 before stepping", True)
+    stable_step: bool = key(
+        "refuse unstable steps before stepping: explicit omega_max*dt at or beyond the "
+        "integrator's limit, and a sub-cycled transition scheme without the damping it needs; "
+        "false: warn (naming what is not enforced) and run", True)
     energy_bound: float = key(
         "stop when total energy exceeds this factor times (initial energy + largest |external "
         "work| so far)", 10.0, positive=True)
