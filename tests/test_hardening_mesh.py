@@ -260,6 +260,30 @@ def test_clockwise_surface_is_reoriented(tmp_path, recombine):
     assert (v > 0).all() and v.sum() == pytest.approx(3.0, rel=1e-12)
 
 
+def test_only_the_clockwise_entity_is_reoriented(tmp_path):
+    """Two surfaces (gmsh entities 1 and 2) of one body: the clockwise one is
+    turned, the other kept as it is; 2D and 3D alike."""
+    nodes, quads, left = grid()
+    els = [(3, 1, 1 if k < 3 else 2, q if k < 3 else q[::-1]) for k, q in enumerate(quads)]
+    mesh = read(msh22(tmp_path / "m.msh", nodes, els + [(1, 2, 3, e) for e in left],
+                      [(2, 1, "solid"), (1, 2, "left")]))
+    note, = mesh.notes
+    assert "surface 2 (3 quad4 cells) has negative orientation" in note
+    conn = mesh.group("solid").cells["quad4"]
+    xy = np.array(nodes)[:, :2]
+    assert np.array_equal(mesh.points[conn[:3]], xy[np.array(quads[:3]) - 1])   # as they were
+    turned = np.roll(np.array(quads[3:]) - 1, 1, axis=1)    # (d, c, b, a) read as (d, a, b, c)
+    assert np.array_equal(mesh.points[conn[3:]], xy[turned])
+    assert total_mass(mesh) == pytest.approx(STEEL.rho * 6.0, rel=1e-12)
+    mirrored = [HEX[i] for i in (0, 3, 2, 1, 4, 7, 6, 5)]                 # a left-handed hex
+    mesh = read(msh22(tmp_path / "h.msh", mirrored, [(5, 1, 7, tuple(range(1, 9)))],
+                      [(3, 1, "solid")]))
+    assert "volume 7 (1 hex8 cells) has negative orientation" in mesh.notes[0]
+    solid = Elastic(1e9, 0.3, 1e3)
+    (_, _, _, me), = group_matrices(mesh, "solid", solid)
+    assert me.sum() == pytest.approx(8000.0, rel=1e-12)
+
+
 def test_one_clockwise_cell_among_others_is_refused(tmp_path):
     nodes, quads, left = grid()
     quads[4] = quads[4][::-1]                         # element 5 alone runs clockwise
@@ -358,7 +382,8 @@ def test_network_file_of_one_npy_array_is_named(tmp_path):
 # -- 7. load keys a load kind would ignore ------------------------------------------------------
 
 @pytest.mark.parametrize("scene, sets, key, words", [
-    ("wave_bar_3d", ["loads.0.component=4"], "loads[0].component", "not both"),
+    ("wave_bar_3d", ["loads.0.component=4"], "loads[0].component", "component 4 out of range"),
+    ("wave_bar_3d", ["loads.0.component=1"], "loads[0].component", "not both"),
     ("wave_bar_3d", ["loads.0.component=4", "loads.0.direction=null"], "loads[0].component",
      "component 4 out of range: a traction on group 'left' has 3 components"),
     ("wave_bar_fem", ["loads.0.component=2", "loads.0.direction=null"], "loads[0].component",

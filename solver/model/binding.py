@@ -82,6 +82,9 @@ def _traction(ld, path, mesh, space):
             fail(f"{path}.component", f"component {ld.component} out of range: a traction on "
                  f"group {ld.group!r} has {space} components ({', '.join('xyz'[:space])} = "
                  f"{', '.join(map(str, range(space)))})")
+        if ld.direction is not None:
+            fail(f"{path}.component", "a group load's traction acts along direction: give "
+                 "direction or component, not both")
         axis = tuple(float(c == ld.component) for c in range(space))
         ld = dataclasses.replace(ld, direction=axis, component=None)
     return ld

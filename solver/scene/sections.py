@@ -128,9 +128,6 @@ class Load:
         if self.direction is not None and self.group is None:
             fail(f"{path}.direction", "is for group loads (tractions); a node or at load acts "
                  "on its DOF component")
-        if self.group is not None and self.component is not None and self.direction is not None:
-            fail(f"{path}.component", "a group load's traction acts along direction: give "
-                 "direction or component, not both")
         if self.kind == "tabulated" and self.amplitude != 1.0:
             fail(f"{path}.amplitude", "not used by a tabulated load (its table holds the values)")
         if self.kind in ("sine", "tabulated") and self.start != 0.0:
