@@ -98,7 +98,8 @@ def test_cells_listed_twice_are_kept_once_and_noted(tmp_path):
     single = read(msh22(tmp_path / "once.msh", nodes, once, names))
     double = read(msh22(tmp_path / "twice.msh", nodes, twice, names))
     assert total_mass(double) == total_mass(single) == pytest.approx(STEEL.rho * 6.0, rel=1e-12)
-    assert np.array_equal(double.group("solid").cells["quad4"], single.group("solid").cells["quad4"])
+    assert np.array_equal(double.group("solid").cells["quad4"],
+                          single.group("solid").cells["quad4"])
     assert double.group("left").cells["line2"].shape == (2, 2)
     assert single.notes == ()
     assert any("removed 6 duplicated quad4 cells" in n and "'solid'" in n for n in double.notes)

@@ -107,10 +107,10 @@ def _entity_cells(path, name, gdim, ent, index, xyz, top, flat, notes):
             det = _orientation(fam, xyz[conn][:, :, :top])
             if np.all(det < 0):
                 conn = conn[:, MIRROR[fam]]
-                kind = "surface" if top == 2 else "volume"
-                notes.append(f"{path}: {kind} {ent} ({len(conn)} {fam} cells) has negative "
-                             f"orientation (its {'curve' if top == 2 else 'surface'} loop "
-                             f"runs clockwise): reoriented")
+                why = ("surface", "its curve loop runs clockwise") if top == 2 else \
+                    ("volume", "every cell is inside out")
+                notes.append(f"{path}: {why[0]} {ent} ({len(conn)} {fam} cells) has negative "
+                             f"orientation ({why[1]}): reoriented")
         out[fam] = (np.concatenate([out[fam][0], conn]), np.concatenate([out[fam][1], et])) \
             if fam in out else (conn, et)
     return out
