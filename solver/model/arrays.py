@@ -173,6 +173,6 @@ def build_network(scene: Scene) -> Model:
         u0[node] = value
     for node, value in scene.initial.velocity.items():
         v0[node] = value
-    loads = tuple(PointLoad(l.node * dof + l.component, load_function(l)) for l in scene.loads)
+    loads = tuple(PointLoad(l.node * dof + (l.component or 0), load_function(l)) for l in scene.loads)
     return Model(dof=dof, mass=net.mass, spring_i=net.spring_i, spring_j=net.spring_j,
                  spring_k=net.stiffness, loads=loads, u0=u0, v0=v0)

@@ -40,17 +40,14 @@ def bind(scene):
     loads = []
     for i, ld in enumerate(scene.loads):
         if ld.group is not None:
-            data.group(ld.group, f"loads[{i}].group")
-            space = data.points.shape[1] if continuum else d
-            if ld.direction is not None and len(ld.direction) != space:
-                fail(f"loads[{i}].direction", f"needs {space} components")
+            ld = _traction(ld, f"loads[{i}]", data, data.points.shape[1] if continuum else d)
         else:
             if ld.at is not None and not continuum:
                 fail(f"loads[{i}].at", "a point needs a continuum model (give node)")
             node = ld.node if ld.node is not None else snap(scene.model, data, ld.at,
                                                             f"loads[{i}].at", zone)
-            _check_dof(f"loads[{i}]", node, ld.component, n, d)
-            loads.append(dataclasses.replace(ld, node=node, at=None))
+            _check_dof(f"loads[{i}]", node, ld.component or 0, n, d)
+            loads.append(dataclasses.replace(ld, node=node, at=None, component=ld.component or 0))
             continue
         loads.append(ld)
     for kind in ("displacement", "velocity"):
@@ -65,6 +62,32 @@ def bind(scene):
     parts = tuple(dataclasses.replace(p, nodes=nodes, group=None)
                   for p, nodes in zip(scene.partitions, owned))
     return dataclasses.replace(scene, partitions=parts, probes=tuple(probes), loads=tuple(loads))
+
+
+FACETS = ("line2", "tri3", "quad4")
+
+
+def _traction(ld, path, mesh, space):
+    """Group load ``ld`` checked against the mesh: its group holds edges or
+    faces, its direction has ``space`` components; a component c becomes the
+    direction e_c."""
+    group = mesh.group(ld.group, f"{path}.group")
+    if not any(f in group.cells for f in FACETS):
+        fail(f"{path}.group", f"group {ld.group!r} (dim {group.dim}, "
+             f"{', '.join(group.cells) or 'no cells'}) has no edges or faces to carry a traction")
+    if ld.direction is not None and len(ld.direction) != space:
+        fail(f"{path}.direction", f"needs {space} components")
+    if ld.component is not None:
+        if ld.component >= space:
+            fail(f"{path}.component", f"component {ld.component} out of range: a traction on "
+                 f"group {ld.group!r} has {space} components ({', '.join('xyz'[:space])} = "
+                 f"{', '.join(map(str, range(space)))})")
+        if ld.direction is not None:
+            fail(f"{path}.component", "a group load's traction acts along direction: give "
+                 "direction or component, not both")
+        axis = tuple(float(c == ld.component) for c in range(space))
+        ld = dataclasses.replace(ld, direction=axis, component=None)
+    return ld
 
 
 def _check_continuum(spec, mesh):

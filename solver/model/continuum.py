@@ -43,6 +43,7 @@ class ContinuumArrays:
     contact: tuple = None          # settings of model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
     inertia: np.ndarray = None     # [n_nodes] rotary inertia of shell nodes (DOFs 3-5), or None
+    notes: tuple = ()              # what reading the mesh changed (solver.model.mesh), logged
 
     @property
     def n_nodes(self) -> int:
@@ -149,23 +150,44 @@ class BondStiffness:
         return np.block([[nn, -nn], [-nn, nn]])
 
 
+_g, _w = np.polynomial.legendre.leggauss(3)
+GAUSS3 = np.array([[a, b] for b in _g for a in _g])             # 3x3 Gauss points on [-1, 1]^2
+GAUSS3_W = np.array([wa * wb for wb in _w for wa in _w])
+
+
+def facet_weights(fam, X) -> np.ndarray | None:
+    """w_ea = integral of N_a over each facet [n_el, k] (X [n_el, k, space]); None
+    for cells that are not facets.  Lines and triangles are exact in closed form
+    (length/2, area/3); a quad4 face is integrated with 3x3 Gauss points over
+    its bilinear map, |dx/dxi x dx/deta| N_a (exact on a plane face, whatever its
+    shape: a trapezoid's nodes do not get area/4 each; close on a warped one)."""
+    if fam == "line2":
+        return np.repeat(0.5 * np.linalg.norm(X[:, 1] - X[:, 0], axis=1)[:, None], 2, axis=1)
+    if fam == "tri3":
+        e1, e2 = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
+        cross = np.cross(e1, e2) if X.shape[2] == 3 else e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        area = 0.5 * (np.linalg.norm(cross, axis=1) if X.shape[2] == 3 else np.abs(cross))
+        return np.repeat(area[:, None] / 3, 3, axis=1)
+    if fam == "quad4":
+        from solver.model.elements import FAMILIES
+        N, dN = FAMILIES["quad4"].shape(GAUSS3)                 # [q, a], [q, a, 2]
+        T = np.einsum("qai,eaj->eqij", dN, X)                    # tangents dx/dxi_i [e, q, i, x]
+        if X.shape[2] == 3:
+            dA = np.linalg.norm(np.cross(T[:, :, 0], T[:, :, 1]), axis=2)
+        else:
+            dA = np.abs(np.linalg.det(T))
+        return np.einsum("eq,q,qa->ea", dA, GAUSS3_W, N)
+    return None
+
+
 def facet_forces(mesh, group_name, where):
     """Nodal weights w_a = integral of N_a over the group's facets: [n_nodes]."""
     group = mesh.group(group_name, where)
     w = np.zeros(len(mesh.points))
     for fam, conn in group.cells.items():
-        X = mesh.points[conn]
-        if fam == "line2":
-            size = np.linalg.norm(X[:, 1] - X[:, 0], axis=1)
-        elif fam == "tri3":
-            size = 0.5 * np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), axis=1)
-        elif fam == "quad4":
-            size = 0.5 * (np.linalg.norm(np.cross(X[:, 1] - X[:, 0], X[:, 3] - X[:, 0]), axis=1) +
-                          np.linalg.norm(np.cross(X[:, 1] - X[:, 2], X[:, 3] - X[:, 2]), axis=1))
-        else:
-            continue
-        w += np.bincount(conn.ravel(), weights=np.repeat(size / conn.shape[1], conn.shape[1]),
-                         minlength=len(w))
+        we = facet_weights(fam, mesh.points[conn])
+        if we is not None:
+            w += np.bincount(conn.ravel(), weights=we.ravel(), minlength=len(w))
     return w
 
 
@@ -242,9 +264,16 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
 
 
 def build(scene, reach: int = 1) -> ContinuumArrays:
-    """The continuum model; ``reach``: external layers of dem partitions (lattice extent)."""
+    """The continuum model; ``reach``: external layers of dem partitions (lattice
+    extent).  It carries the notes of reading its mesh (duplicates removed,
+    entities reoriented), which the run logs."""
+    mesh = model_data.read(scene.model)
+    arrays = _build(scene, mesh, reach)
+    return dataclasses.replace(arrays, notes=mesh.notes) if mesh.notes else arrays
+
+
+def _build(scene, mesh, reach):
     spec = scene.model
-    mesh = model_data.read(spec)
     shells = spec.material.kind == "shell" or spec.shells
     if shells and scene.heat is not None:
         from solver.errors import SceneError
@@ -358,5 +387,5 @@ def load_list(scene, mesh, dof, space):
                     if direction[c]:
                         loads.append(PointLoad(int(node) * dof + c, g, float(w[node] * direction[c])))
         else:
-            loads.append(PointLoad(load.node * dof + load.component, g))
+            loads.append(PointLoad(load.node * dof + (load.component or 0), g))
     return loads

@@ -12,7 +12,10 @@ node), matching the global numbering ``node * dim + component`` (block size
 = dim).  ``stiffness`` returns K_e [n_el, nd, nd]; ``lumped_mass`` returns the
 row sums of the consistent mass, rho * integral of N_a, per node [n_el, n_nodes].
 An element whose Jacobian determinant is not positive at a quadrature point
-(inverted or degenerate) is refused, naming the element.
+(inverted or degenerate) is refused, naming the element; ``lumped_mass`` also
+checks it at the corners of quad4 and hex8 cells, so a non-convex cell (a
+"dart", whose reflex corner maps inside out) is refused though its Gauss
+points are fine.
 """
 from __future__ import annotations
 
@@ -118,10 +121,35 @@ class Elastic:
 
 
 class BadElement(ValueError):
-    def __init__(self, index: int, detj: float):
-        super().__init__(f"element {index} is inverted or degenerate (Jacobian determinant {detj:.3g})")
+    def __init__(self, index: int, detj: float, corner: int | None = None):
+        what = ("inverted or degenerate" if corner is None else
+                f"non-convex or inverted (at its corner node {corner}")
+        super().__init__(f"element {index} is {what}" +
+                         (f" (Jacobian determinant {detj:.3g})" if corner is None else
+                          f", Jacobian determinant {detj:.3g})"))
         self.index = index
         self.detj = detj
+        self.corner = corner
+
+
+CORNERS = {"quad4": QUAD_NODES, "hex8": HEX_NODES}
+
+
+def check_corners(family: Family, X: np.ndarray):
+    """Refuse (BadElement) a cell whose Jacobian determinant is negative at a
+    corner (a non-convex quad4 or hex8: positive at the Gauss points, inside
+    out near the reflex corner).  Beyond rounding only: a straight angle or a
+    collapsed corner (determinant 0) is left to the Gauss-point check."""
+    nodes = CORNERS.get(family.name)
+    if nodes is None or not len(X):             # simplices: the Jacobian is constant
+        return
+    _, dN = family.shape(nodes)
+    det = np.linalg.det(np.einsum("qai,eaj->eqij", dN, X))     # [e, corner]
+    scale = np.abs(det).max(axis=1, keepdims=True)
+    bad = det < -1e-10 * scale
+    if bad.any():
+        e, q = np.argwhere(bad)[0]
+        raise BadElement(int(e), float(det[e, q]), int(q))
 
 
 def _geometry(family: Family, X: np.ndarray):
@@ -188,13 +216,15 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
 
 def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
     """Nodal masses rho * integral(N_a) per element node [n_el, n_nodes]
-    (in chunks: the geometry temporaries stay small on large meshes)."""
+    (in chunks: the geometry temporaries stay small on large meshes); every
+    Jacobian is checked, at the corners too (:func:`check_corners`)."""
     out = np.empty((X.shape[0], family.n_nodes))
     for s in range(0, X.shape[0], CHUNK):
         try:
             N, _, wdet = _geometry(family, X[s:s + CHUNK])
+            check_corners(family, X[s:s + CHUNK])
         except BadElement as e:
-            raise BadElement(e.index + s, e.detj) from None
+            raise BadElement(e.index + s, e.detj, e.corner) from None
         out[s:s + CHUNK] = material.rho * material.measure() * np.einsum("eq,qa->ea", wdet, N)
     return out
 

@@ -92,13 +92,24 @@ def from_file(path: str) -> Network:
     names = ("mass", "spring_i", "spring_j", "stiffness")
     if path.endswith((".h5", ".hdf5")):
         import h5py
-        with h5py.File(path, "r") as f:
-            missing = [n for n in names if n not in f]
+        try:
+            f = h5py.File(path, "r")
+        except OSError as e:                   # h5py's message does not name the file
+            raise ValueError(f"{path}: not an HDF5 file ({e})") from None
+        with f:
+            missing = [n for n in names if not isinstance(f.get(n), h5py.Dataset)]
             if missing:
                 raise ValueError(f"{path}: missing datasets {missing} (has {sorted(f)})")
             data = {n: f[n][()] for n in names}
     else:
-        with np.load(path) as f:
+        try:
+            f = np.load(path, allow_pickle=False)
+        except (OSError, ValueError, EOFError) as e:
+            raise ValueError(f"{path}: not an NPZ archive ({e})") from None
+        if not isinstance(f, np.lib.npyio.NpzFile):
+            raise ValueError(f"{path}: one .npy array, not an NPZ archive of {', '.join(names)} "
+                             "(or an .h5/.hdf5 file)")
+        with f:
             missing = [n for n in names if n not in f]
             if missing:
                 raise ValueError(f"{path}: missing arrays {missing} (has {sorted(f.files)})")

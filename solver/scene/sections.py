@@ -106,10 +106,13 @@ class Load:
     at: tuple[float, ...] | None = key(
         "continuum models: a point [m]; the nearest body node takes the load on its DOF "
         "component (as probes[].at snaps)", None)
-    direction: tuple[float, ...] | None = key("continuum models: traction direction (default "
-                                              "[1, 0(, 0)])", None)
-    component: int = key("DOF of the node (0 for networks)", 0, nonnegative=True)
-    amplitude: float = key("A [N] (sine, half_sine, rectangular)", 1.0)
+    direction: tuple[float, ...] | None = key("group loads: traction direction (default "
+                                              "[1, 0(, 0)], or the axis of component)", None)
+    component: int | None = key(
+        "node and at loads: DOF of the node (0 for networks; default 0); group loads: the "
+        "traction's axis x, y (, z) = 0, 1 (, 2), instead of direction", None, nonnegative=True)
+    amplitude: float = key("A [N] (sine, half_sine, rectangular; a tabulated load's table "
+                           "holds its values)", 1.0)
     omega: float | None = key("angular frequency [rad/s] (sine)", None, positive=True)
     duration: float | None = key("pulse length [s] (half_sine, rectangular)", None, positive=True)
     start: float = key("pulse start [s] (half_sine, rectangular)", 0.0, nonnegative=True)
@@ -122,6 +125,13 @@ class Load:
         if self.direction is not None and not any(self.direction):
             fail(f"{path}.direction", f"{list(self.direction)} is the zero vector: a traction "
                  "needs a direction")
+        if self.direction is not None and self.group is None:
+            fail(f"{path}.direction", "is for group loads (tractions); a node or at load acts "
+                 "on its DOF component")
+        if self.kind == "tabulated" and self.amplitude != 1.0:
+            fail(f"{path}.amplitude", "not used by a tabulated load (its table holds the values)")
+        if self.kind in ("sine", "tabulated") and self.start != 0.0:
+            fail(f"{path}.start", f"not used by a {self.kind} load (it starts at t = 0)")
         need = {"sine": ("omega",), "half_sine": ("duration",), "rectangular": ("duration",),
                 "tabulated": ("table",)}[self.kind]
         for name in ("omega", "duration", "table"):
