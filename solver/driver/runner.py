@@ -117,6 +117,8 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         failure, done, loop_wall, interrupted = step_loop(
             scene, scheme, probes, guard, say if rank == 0 else None, comm, fields, start,
             checkpoint, heating)
+        if fields:                  # the last frame is the state the run ended in
+            fields.write_final(done * Dt)
     finally:
         if fields:
             fields.close()
