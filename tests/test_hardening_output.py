@@ -133,6 +133,26 @@ def test_particles_and_cracks_read_as_single_datasets(tmp_path):
     assert np.array_equal(np.sort(point["time"]), res.broken[:, 0])
 
 
+def test_a_failed_run_writes_the_state_it_stopped_at(tmp_path):
+    """wave_bar_fem at 2e-7 s (critical 1.1e-7 s, guard.stable_step off) blows up
+    and stops at system step 4, before the first multiple of fields.every = 7:
+    its fields still end with that state (t = 8e-7 s, the output's t_end)."""
+    out = tmp_path / "f.h5"
+    proc = run_cli(["configs/wave_bar_fem.yaml", "--set", f"output.file={out}", "--set",
+                    "time.dt=2e-7", "--set", "guard.stable_step=false", "--set",
+                    "output.fields.every=7", "--set", "reference=none"])
+    assert proc.returncode == 3, proc.stderr
+    with h5py.File(out) as f:
+        assert f.attrs["status"] == "failed"
+        t_end, n = float(f.attrs["t_end"]), int(f.attrs["n_system_steps"])
+    assert 0 < n < 7
+    xdmf = tmp_path / "f_fields.xdmf"
+    assert one_collection(xdmf) == 2
+    times, data = frames(xdmf)
+    assert np.allclose(times, [0.0, t_end], rtol=1e-12, atol=0)
+    assert np.abs(data[-1][0]["displacement"]).max() > 0
+
+
 # ------------------------------------------------------------- 3: energy audit
 def audit(energy):
     """(largest |E(t) + D(t) - E(0) - W(t)| / (E(0) + max |W|), D(end) / the same)."""
