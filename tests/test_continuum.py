@@ -268,7 +268,8 @@ def test_xdmf_stress_is_read_by_vtk_as_the_tensor_it_is(name, tmp_path):
     reader = vtkXdmfReader()
     reader.SetFileName(str(tmp_path / "u_fields.xdmf"))
     reader.Update()
-    stress = vtk_to_numpy(reader.GetOutputDataObject(0).GetBlock(0).GetCellData().GetArray("stress"))
+    grid = reader.GetOutputDataObject(0)          # one time series: a dataset, not blocks
+    stress = vtk_to_numpy(grid.GetCellData().GetArray("stress"))
     E, nu = scene.model.material.E, scene.model.material.nu
     if d == 3:
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))

@@ -95,7 +95,7 @@ def test_plot_refuses_what_it_cannot_read(tmp_path):
     cases = [([tmp_path / "nope.h5"], "no such output file"),
              ([tmp_path / "junk.h5"], "not a readable HDF5 file"),
              ([tmp_path / "cut.h5"], "not a readable HDF5 file"),
-             ([tmp_path / "foreign.h5"], "not an output of this solver (no /probes, /energy)"),
+             ([tmp_path / "foreign.h5"], "not an output of this solver (no /energy, status attribute)"),
              ([good, "--probe", "zz"], "no probe 'zz' (it has: x3)")]
     for args, words in cases:
         proc = subprocess.run([sys.executable, "-m", "solver.tools.plot", *map(str, args), "-o",

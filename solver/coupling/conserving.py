@@ -184,6 +184,7 @@ class Conserving(OwnSides):
         self.n = gd.size
         self.rf = self._rows(self.F, gd)
         self.rc = self._rows(self.C, gd)
+        self.replay = self.F is not None and bool(self.F.damping)
         if self.F is not None:
             if self.F.damping:
                 self.F._am[self.F.n_own:] = 0.0           # interface inertia is the coarse side's
@@ -248,7 +249,7 @@ class Conserving(OwnSides):
         reactions (Rbar mean, Rm last) on the fine rank, the coarse X_II on the
         coarse rank; both replicated, Z factored on every rank."""
         n, F, C = self.n, self.F, self.C
-        Rbar, X = np.zeros((n, n)), np.zeros((n, n))
+        Rbar, X, self.Rm = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
         if F is not None:
             groups = F._owned_loads
             self._ld_rows = np.concatenate([g.own for g in groups]) if groups else \
@@ -265,7 +266,7 @@ class Conserving(OwnSides):
             self._racc = P.Vec().createWithArray(self._Racc, comm=P.COMM_SELF)
             saved, loads = F.state.copy(), F._loads
             F._loads = []                       # the response to V alone
-            cols, self.Rm = [], np.zeros((n, n))
+            cols = []
             for k in range(n):
                 F.state[...] = 0.0
                 V = np.zeros(n)
@@ -288,10 +289,11 @@ class Conserving(OwnSides):
                 X[:, k] = self._coarse_solve(e)[self.rc]
         if self.comm.size > 1:
             self.comm.Bcast(Rbar, root=self._owner(self.f))
+            self.comm.Bcast(self.Rm, root=self._owner(self.f))
             self.comm.Bcast(X, root=self._owner(self.c))
         self.Rbar, self.X_II = Rbar, X
         self.c_link = 2.0 * self._scene.partitions[self.c].beta * self.T ** 2
-        self._buf = np.zeros(2 * n)
+        self._buf = np.zeros(3 * n)
         self.zksp = None
         if n:
             Z = self.T * np.eye(n) + self.c_link * X @ Rbar
@@ -325,7 +327,7 @@ class Conserving(OwnSides):
                 f"{self.iface.tolist()[:6]}, fine '{specs[self.f].name}' on the coarse side's "
                 f"straight interface path, coarse '{specs[self.c].name}' with the fine reactions' "
                 f"trapezoidal mean; {self.n}x{self.n} interface system factored once"
-                + (f", one allreduce of 2 x {self.n} values per system step"
+                + (f", one allreduce of 3 x {self.n} values per system step"
                    if self.comm.size > 1 else "")
                 + f"; stable by construction at any ratio (here {self.m})")
 
@@ -403,7 +405,7 @@ class Conserving(OwnSides):
         if self.F is not None:
             clocks.part(self.F, self._fine_link, V)
         if self.C is not None:
-            clocks.part(self.C, self._coarse_link, V, buf[n:].copy())
+            clocks.part(self.C, self._coarse_link, V, buf[n:2 * n].copy(), buf[2 * n:].copy())
 
     def _reduce(self):
         from mpi4py import MPI
@@ -421,18 +423,35 @@ class Conserving(OwnSides):
 
     def _fine_free(self, t0):
         """The fine pass with the interface held (V = 0); its share of the
-        interface system's right-hand side and its mean reaction."""
+        interface system's right-hand side and its mean reaction.  A damped
+        fine side keeps its start state for the replay (:meth:`_fine_link`)
+        and dissipates nothing on this path."""
         F, n = self.F, self.n
         uF0 = F.U[self.rf].copy()
         if self._ld_rows.size:
             self._u0 = F.U[self._ld_rows]
             self._values[0] = [g.val_prev for g in F._owned_loads]
+        if self.replay:
+            self._start = (t0, F.state.copy())
+            F.stepping = False                      # no dissipation on the free path
         rbar0, self._rm0 = self._fine_pass(t0, 0.0)
+        F.stepping = True
         self._buf[:n] += -uF0 - self.c_link * (self.X_II @ rbar0)
-        self._buf[n:] = rbar0
+        self._buf[n:2 * n] = rbar0
+        self._buf[2 * n:] = self._rm0
 
     def _fine_link(self, V):
-        """The fine state plus its response to V; the next pass's first reaction."""
+        """The fine state plus its response to V; the next pass's first reaction.
+        Damped, the fine side instead repeats its pass from the start state on
+        the solved interface path: its dissipation h v.C v is quadratic in V,
+        so it cannot be superposed (twice the fine side's cost)."""
+        if self.replay:
+            t0, start = self._start
+            self.F.state[...] = start
+            _, self.r0 = self._fine_pass(t0, V, loads=False)
+            if self._ld_rows.size:
+                self._track_work(None)
+            return
         v, state = self._link
         self._Vf[:] = V
         self.S.multAdd(v, state, state)
@@ -445,7 +464,7 @@ class Conserving(OwnSides):
         true path (free pass plus the response to V at every step), by the
         trapezoidal rule, and the load groups' memory for the next step."""
         F = self.F
-        path = self._path + self._ld_resp @ V
+        path = self._path + self._ld_resp @ V if V is not None else self._path.copy()
         path[0] = self._u0
         force = self._values @ self._scale                      # [m + 1, loaded rows]
         F.work += float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(path, axis=0)))
@@ -453,10 +472,26 @@ class Conserving(OwnSides):
             g.u_prev[:] = F.U[g.own]
             g.val_prev = g.val
 
-    def _coarse_link(self, V, rbar0):
+    def _coarse_link(self, V, rbar0, rm0):
         C = self.C
         lam = -(rbar0 + self.Rbar @ V)
         C.A[:C.n_own] += self._coarse_solve(2.0 * lam)
         C.integrator.correct(C)
         C.after_step()
         self.G0 = 2.0 * lam - self.G0
+        self.Lambda = lam                 # the interface force over the step (its mean)
+        self._regauge(-(rm0 + self.Rm @ V))
+
+    def _regauge(self, G):
+        """Make the coarse interface force at t_m the fine side's reaction G = -r_m.
+
+        The average-acceleration recursion G_m = 2 Lambda - G_0 leaves a
+        free alternating part in the interface force and so in the recorded
+        interface acceleration (a zig-zag of period two system steps).  It is
+        a null mode: u and v depend on G_0 and a_0 only through a_0 + a_m, so
+        moving G_0 by dG and a_I by dG / m_I changes no later u or v (to
+        round-off).  With G = -r_m the coarse interface acceleration is
+        Newton's at t_m: (coarse forces + the fine side's reaction) / m_I."""
+        C, rc = self.C, self.rc
+        C.A[rc] += (G - self.G0) * C._minv[rc]
+        self.G0 = G

@@ -14,6 +14,13 @@ fields also writes ``<output stem>_cracks.xdmf``: every broken bond at its midpo
 with the time it broke (:func:`write_cracks`).  Both
 share one time axis, so one ParaView session opens them together.  Values are
 gathered to rank 0, which writes.
+
+Frames are written at t = 0, every N system steps and at the state the run
+ended in (the end time, or where a failed or interrupted run stopped), so the
+last frame is always the final state.  Each XDMF holds one temporal
+collection and nothing else (:func:`one_collection`): VTK's XDMF reader
+(ParaView, pyvista) opens it as one time series, without a static mesh block
+drawn over the result.
 """
 from __future__ import annotations
 
@@ -58,6 +65,7 @@ class FieldWriter:
         self.n = mdl.n_nodes
         self.writers = []
         self.n_open = 0
+        self.last = None                # the time of the last frame written
         if comm.rank != 0:
             return
         base = Path(scene.output_file).resolve().with_suffix("")
@@ -103,6 +111,8 @@ class FieldWriter:
         self.n_open = len(self.writers)
 
     def write(self, t: float):
+        """A frame of the current state at time ``t`` (collective)."""
+        self.last = t
         local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dim),
                   p.V[:p.n_own].reshape(-1, self.dim)) for p in self.parts]
         damage = [(p.layout.owned, p.force.damage()) for p in self.parts
@@ -139,6 +149,12 @@ class FieldWriter:
             if broken is not None:           # breakable bonds: the fraction each particle lost
                 data["damage"] = broken[self.particles]
             self.writers[1].write_data(t, point_data=data)
+
+    def write_final(self, t: float):
+        """The state the run ended in at time ``t``, unless that frame is written
+        already (collective)."""
+        if self.last != t:
+            self.write(t)
 
     def _resultants(self, u) -> dict:
         """membrane_force [N/m], moment [N m/m] (element frames) and von_mises
@@ -178,6 +194,7 @@ class FieldWriter:
             w.__exit__(None, None, None)
         if self.writers:
             for xdmf in self.files[:self.n_open]:
+                one_collection(xdmf)
                 name_datasets(xdmf)
         self.writers = []
 
@@ -200,6 +217,46 @@ def write_cracks(output_file: str, broken: np.ndarray, dim: int) -> list[str]:
         meshio.write(xdmf.name, meshio.Mesh(pts, [("vertex", np.arange(len(pts))[:, None])],
                                             point_data=data))
     return [str(xdmf), str(xdmf.with_suffix(".h5"))]
+
+
+XINCLUDE = "http://www.w3.org/2003/XInclude"
+
+
+def one_collection(xdmf: str):
+    """Rewrite meshio's time series ``xdmf`` as one temporal collection.
+
+    meshio writes the mesh as a static top-level grid beside the collection,
+    which VTK's reader shows as a second block (zero displacement at every
+    time, drawn over the result).  Here the first time step's grid holds the
+    Geometry and Topology, every later one includes them from it by XInclude
+    (the heavy data are written once), and the Domain holds the collection
+    only."""
+    import xml.etree.ElementTree as ET
+    ET.register_namespace("xi", XINCLUDE)
+    tree = ET.parse(xdmf)
+    domain = tree.getroot().find("Domain")
+    grids = domain.findall("Grid")
+    collection = next(g for g in grids if g.get("GridType") == "Collection")
+    mesh = next((g for g in grids if g.get("GridType") == "Uniform"), None)
+    if mesh is None:                                 # already one collection
+        return
+    domain.remove(mesh)
+    collection.set("Name", Path(xdmf).stem)
+    steps = collection.findall("Grid")
+    include = f"{{{XINCLUDE}}}include"
+    pointer = "xpointer(/Xdmf/Domain/Grid/Grid[1]/*[self::Topology or self::Geometry])"
+    for i, step in enumerate(steps):
+        step.set("Name", f"step{i}")
+        step.set("GridType", "Uniform")
+        inc = step.find(include)
+        if i == 0:
+            at = list(step).index(inc)
+            step.remove(inc)
+            for j, item in enumerate(mesh.findall("Geometry") + mesh.findall("Topology")):
+                step.insert(at + j, item)
+        else:
+            inc.set("xpointer", pointer)
+    tree.write(xdmf, xml_declaration=True, encoding="utf-8")
 
 
 def name_datasets(xdmf: str):

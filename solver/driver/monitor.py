@@ -7,7 +7,10 @@ reports a failure when the total is not finite or exceeds ``bound`` x (initial
 energy + largest |external work| so far): an energy-consistent run never does,
 an unstable one does within a few samples.  External work is the discrete
 W = sum 1/2 (f_n + f_n+1) . (u_n+1 - u_n), which the trapezoidal rule (Newmark
-average acceleration) balances exactly.
+average acceleration) balances exactly.  ``dissipated`` is what Rayleigh
+damping (and contact dashpots) took, sum h v.C v per step at the velocity the
+residual uses, in every damped partition of every scheme: kinetic + strain +
+dissipated (+ released by broken bonds) = initial energy + external work.
 """
 from __future__ import annotations
 

@@ -143,6 +143,8 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
         failure, done, loop_wall, interrupted = step_loop(
             scene, scheme, probes, guard, say if rank == 0 else None, comm, fields, start,
             checkpoint, heating, stop)
+        if fields:                  # the last frame is the state the run ended in
+            fields.write_final(done * Dt)
     finally:
         if fields:
             fields.close()

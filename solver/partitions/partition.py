@@ -135,9 +135,9 @@ class Partition:
             # mass-proportional part second order and the solve diagonal
             self._minv /= 1.0 + self.integrator.gamma * self.dt * self.damping.alpha
         if self.damping:
-            # r = f - K (u + beta v) - alpha M v: work Vecs made only when damped
-            self._uv, self._am = np.zeros(n), self.damping.alpha * self.mass
-            self.uv, self.am_v = vec_on(self._uv, comm), vec_on(np.zeros(n), comm)
+            # r = f - K u - beta K v - alpha M v: work Vecs made only when damped
+            self._am = self.damping.alpha * self.mass
+            self.am_v = vec_on(np.zeros(n), comm)
             self.alpha_m = vec_on(self._am, comm)
         for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
             getattr(self, name).setOptionsPrefix(self.prefix)
@@ -155,10 +155,9 @@ class Partition:
         self._step = self.integrator.bind(self)
         self.steps = 0
         self.wall = 0.0
-        # the energy audit of fracture and heat: the damping's dissipation
-        self.track_dissipation = not self.force.linear or (bool(self.damping) and (
-            getattr(model, "heat", None) is not None or
-            getattr(model, "break_strain", None) is not None))
+        # the energy audit: what Rayleigh damping and contact dashpots dissipate,
+        # h v.C v per step at the velocity the residual uses (energy/dissipated)
+        self.track_dissipation = not self.force.linear or bool(self.damping)
         self.dissipated = 0.0
         self.stepping = False
 
@@ -233,11 +232,13 @@ class Partition:
                 self.r.axpy(-1.0, self.am_v)
                 self._dissipate(v, 1.0)
         elif self.damping and v is not None:
-            if self.track_dissipation:                                # beta v K v: one MatMult
+            if self.damping.beta:                    # -K u - beta K v, beta v.K v dissipated
                 self._internal(v, self.am_v)
                 self._dissipate(v, -self.damping.beta)
-            self.uv.waxpy(self.damping.beta, v, u)
-            self._internal(self.uv, self.r)
+                self._internal(u, self.r)
+                self.r.axpy(self.damping.beta, self.am_v)
+            else:
+                self._internal(u, self.r)
             self.am_v.pointwiseMult(self.alpha_m, v)
             self.r.axpy(-1.0, self.am_v)
             self._dissipate(v, 1.0)
@@ -350,7 +351,7 @@ class Partition:
         for vec in self._views:
             vec.destroy()
         if self.damping:
-            for vec in (self.uv, self.am_v, self.alpha_m):
+            for vec in (self.am_v, self.alpha_m):
                 vec.destroy()
 
 

@@ -194,7 +194,8 @@ class BarWaveReference:
 
 @dataclass(frozen=True)
 class Fields:
-    every: int = key("system steps between field snapshots", positive=True)
+    every: int = key("system steps between field snapshots (the state at t = 0 and the state "
+                     "the run ended in are written too)", positive=True)
 
 
 @dataclass(frozen=True)

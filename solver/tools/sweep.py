@@ -84,17 +84,27 @@ def read_run(path) -> dict:
             row[f"{name}_s"] = float(g.attrs["wall_time"])
             row[f"{name}_steps"] = int(g.attrs["steps"])
             row[f"{name}_wait_us"] = 1e6 * float(g.attrs["exchange_wall_time"]) / max(n, 1)
-        probes = list(f["probes"].values())
-        first = dict(probes[0].attrs) if probes else {}
-    row["max_rel_error"] = float(first.get("max_rel_error", math.nan))
-    row["rms_rel_error"] = float(first.get("rms_rel_error", math.nan))
+        probes = [dict(g.attrs) for g in f.get("probes", {}).values()]
+    # the worst probe (every probe counts, on networks and continua alike)
+    for key in ("max_rel_error", "rms_rel_error"):
+        values = [float(p[key]) for p in probes if key in p and np.isfinite(p[key])]
+        row[key] = max(values) if values else math.nan
     return row
+
+
+# what each error column is, normalisation included (tables and plots)
+ERRORS = {
+    "max_rel_error": ("max rel. error", "worst probe: max|u − u_ref| / max|u_ref|"),
+    "rms_rel_error": ("RMS rel. error", "worst probe: ‖u − u_ref‖₂ / ‖u_ref‖₂"),
+    "vector_rel_error": ("eq. 9 error", "all probes as one vector: mean over t of "
+                                        "‖u − u_ref‖ / ‖u_ref‖"),
+}
 
 
 def markdown(rows, parts, by_dt) -> str:
     x = "dt [s]" if by_dt else "η"
     head = (f"| ranks | scheme | treatment | {x} | system steps | stepping wall [s] | time ratio | "
-            "speed-up | max rel. error | RMS rel. error |")
+            f"speed-up | {ERRORS['max_rel_error'][0]} | {ERRORS['rms_rel_error'][0]} |")
     extra = ["eq. 9 error"] if any(not math.isnan(r["vector_rel_error"]) for r in rows) else []
     if any(r["ranks"] > 1 for r in rows):
         extra += [f"wait {p} rank [us/step]" for p in parts]
@@ -109,31 +119,52 @@ def markdown(rows, parts, by_dt) -> str:
         if any(e.startswith("wait") for e in extra):
             cells += [f"{r[f'{p}_wait_us']:.2f}" if r["ranks"] > 1 else "-" for p in parts]
         lines.append("| " + " | ".join(map(str, cells)) + " |")
+    shown = ["max_rel_error", "rms_rel_error"] + (["vector_rel_error"] if "eq. 9 error" in extra
+                                                  else [])
+    lines += ["", *(f"- {ERRORS[k][0]}: {ERRORS[k][1]}" for k in shown)]
     return "\n".join(lines)
 
 
-def error_of(r) -> float:
-    return r["vector_rel_error"] if not math.isnan(r["vector_rel_error"]) else r["rms_rel_error"]
+def error_key(rows) -> str:
+    """The error the plots and orders use: eq. 9 when every row has it (several
+    probes), else the worst probe's RMS relative error."""
+    return "vector_rel_error" if rows and all(not math.isnan(r["vector_rel_error"])
+                                              for r in rows) else "rms_rel_error"
+
+
+def error_of(r, key=None) -> float:
+    return r[key or ("vector_rel_error" if not math.isnan(r["vector_rel_error"])
+                     else "rms_rel_error")]
 
 
 def orders(rows, variants) -> list[str]:
     """Observed order of every variant, from a least-squares fit of log error on log dt."""
     out = []
+    err = error_key(rows)
     for key in variants:
         sel = [r for r in rows if (r["ranks"], r["scheme"], r["treatment"]) == key]
+        sel = [r for r in sel if error_of(r, err) > 0]
         if len(sel) >= 2:
-            k = np.polyfit(np.log([r["dt"] for r in sel]), np.log([error_of(r) for r in sel]), 1)[0]
+            k = np.polyfit(np.log([r["dt"] for r in sel]), np.log([error_of(r, err) for r in sel]),
+                           1)[0]
             out.append(f"observed order, {key[1]} / {key[2]} on {key[0]} rank(s): {k:.2f}")
     return out
 
 
 def plot(rows, path, title, by_dt=False):
-    """Error vs eta (or dt), error vs wall time, wall time vs eta (or dt).
-    Colour = scheme and treatment, line style = rank count."""
+    """Error vs eta (or dt), error vs wall time, wall time vs eta (or dt); only
+    the wall-time panel when the runs have no error (no reference).  Colour =
+    scheme and treatment, line style = rank count; one legend entry per line."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (ax0, ax1, ax2) = plt.subplots(1, 3, figsize=(15, 4.4))
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+    err = error_key(rows)
+    has_error = any(np.isfinite(error_of(r, err)) and error_of(r, err) > 0 for r in rows)
+    n_ax = 3 if has_error else 1
+    fig, axes = plt.subplots(1, n_ax, figsize=(5.2 * n_ax, 4.6), squeeze=False)
+    axes = axes[0]
+    ax0, ax1, ax2 = (axes[0], axes[1], axes[2]) if has_error else (None, None, axes[0])
     kinds = list(dict.fromkeys((r["scheme"], r["treatment"]) for r in rows))
     ranks = list(dict.fromkeys(r["ranks"] for r in rows))
     xkey, xlabel = ("dt", "base step dt [s]") if by_dt else ("eta", "step ratio η")
@@ -144,26 +175,53 @@ def plot(rows, path, title, by_dt=False):
                 continue
             kw = dict(color=f"C{ki}", ls=["-", "--", ":", "-."][ri % 4], marker="o", ms=4,
                       label=f"{scheme}{'/' + treat if treat != '-' else ''}, {n} rank{'s' if n > 1 else ''}")
-            xs, err, wall = ([r[xkey] for r in sel], [error_of(r) for r in sel],
-                             [r["stepping_s"] for r in sel])
-            ax0.loglog(xs, err, **kw)
-            ax1.loglog(wall, err, **kw)
+            xs, wall = [r[xkey] for r in sel], [r["stepping_s"] for r in sel]
             ax2.semilogx(xs, wall, **kw)
-            if ki == 0 and ri == 0:
-                for r in sel:
-                    ax1.annotate(f"{'dt' if by_dt else 'η'}={r[xkey]}", (r["stepping_s"], error_of(r)),
-                                 fontsize=7, xytext=(4, -9), textcoords="offset points")
-    ylabel = "error (eq. 9 if several probes, else RMS rel.)"
-    ax0.set(xlabel=xlabel, ylabel=ylabel, title=f"error per {xkey}")
-    ax1.set(xlabel="stepping wall time [s]", ylabel=ylabel, title="error against run time")
-    ax2.set(xlabel=xlabel, ylabel="stepping wall time [s]", title=f"run time per {xkey}")
-    for ax in (ax0, ax1, ax2):
+            if has_error:
+                ax0.loglog(xs, [error_of(r, err) for r in sel], **kw)
+                ax1.loglog(wall, [error_of(r, err) for r in sel], **kw)
+                if ki == 0 and ri == 0:
+                    for r in sel:
+                        ax1.annotate(f"{'dt' if by_dt else 'η'}={r[xkey]}",
+                                     (r["stepping_s"], error_of(r, err)), fontsize=7,
+                                     xytext=(4, -9), textcoords="offset points")
+    name, meaning = ERRORS[err]
+    ylabel = f"{name} [-]"
+    if has_error:
+        ax0.set(xlabel=xlabel, ylabel=ylabel, title=f"error per {'dt' if by_dt else 'η'}")
+        ax1.set(xlabel="stepping wall time [s]", ylabel=ylabel, title="error against run time")
+    ax2.set(xlabel=xlabel, ylabel="stepping wall time [s]",
+            title=f"run time per {'dt' if by_dt else 'η'}")
+    xs = sorted({r[xkey] for r in rows})
+    for ax in ([ax0, ax2] if has_error else [ax2]):       # ticks at the swept values
+        ax.xaxis.set_major_locator(FixedLocator(xs))
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        if by_dt:
+            ax.tick_params(axis="x", labelrotation=30)
+    if has_error:
+        readable_log(ax0.yaxis, [error_of(r, err) for r in rows])
+        readable_log(ax1.yaxis, [error_of(r, err) for r in rows])
+        readable_log(ax1.xaxis, [r["stepping_s"] for r in rows])
+    for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
     ax2.legend(fontsize=8)
-    fig.suptitle(title)
+    note = f"{name}: {meaning}" if has_error else "no reference: run time only"
+    fig.suptitle(f"{title}\n{note}", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def readable_log(axis, values):
+    """Plain tick labels on a log axis whose data span less than a decade
+    (matplotlib labels its minor ticks 6.9 x 10^-3 there)."""
+    from matplotlib.ticker import FuncFormatter
+    values = [v for v in values if v > 0 and np.isfinite(v)]
+    if values and max(values) < 10 * min(values):
+        plain = FuncFormatter(lambda v, _: f"{v:.3g}")
+        axis.set_major_formatter(plain)
+        axis.set_minor_formatter(plain)
 
 
 def main(argv=None) -> int:
@@ -190,6 +248,10 @@ def main(argv=None) -> int:
                 raise ValueError(f"{option}: expected a comma-separated list, got {text!r}")
     except (SceneError, ValueError) as e:
         print(f"error: {e}", file=sys.stderr)
+        return 2
+    if not scene.probes:
+        print(f"error: {args.scene}: probes: the scene has none; the sweep measures the error "
+              "at probes (add some under probes:)", file=sys.stderr)
         return 2
     try:
         return sweep(args, scene, ranks, by_dt, points)
@@ -232,7 +294,8 @@ def sweep(args, scene, ranks, by_dt, points) -> int:
                     row["speedup"] = base / row["stepping_s"]
                     rows.append(row)
                     print(f"sweep: n={n} {scheme}/{treat} {'dt' if by_dt else 'eta'}={x}: "
-                          f"{row['stepping_s']:.3f} s, error {error_of(row):.3e}", flush=True)
+                          f"{row['stepping_s']:.3f} s, error {error_of(row):.3e} "
+                          f"({ERRORS[error_key([row])][0]})", flush=True)
     fields = list(dict.fromkeys(k for r in rows for k in r))
     with open(out / "sweep.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=fields)
