@@ -369,14 +369,16 @@ class Conserving(OwnSides):
             self.G0 = C.mass[self.rc] * C.A[self.rc] - C.R[self.rc]
 
     def memory(self) -> dict:
-        """The interface force G_0 (coarse side) and the fine side's reaction r_0
-        as the last step left them: synchronise() recovers both from the states,
-        equal to round-off; the checkpoint keeps them so a restart is bitwise."""
+        """The interface force G_0 (coarse side), the fine side's reaction r_0 and
+        its own copy of the interface state as the last step left them:
+        synchronise() recovers them from the coarse side, equal to round-off;
+        the checkpoint keeps them so a restart is bitwise."""
         out = {}
         if self.C is not None:
             out["G0"] = np.array(self.G0, dtype=float)
         if self.F is not None:
             out["r0"] = np.array(self.r0, dtype=float)
+            out["fine_interface"] = self.F.state[:, self.rf].copy()   # its own u, v, a there
         return out
 
     def restore_memory(self, memory: dict):
@@ -384,6 +386,7 @@ class Conserving(OwnSides):
             self.G0 = np.array(memory["G0"], dtype=float)
         if self.F is not None and "r0" in memory:
             self.r0 = np.array(memory["r0"], dtype=float)
+            self.F.state[:, self.rf] = memory["fine_interface"]
 
     def step(self, t0: float):
         """Coarse free step and fine free pass (concurrent on 2 ranks), one
