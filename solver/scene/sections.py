@@ -405,7 +405,8 @@ class Scene:
             below, above = math.floor(steps), math.floor(steps) + 1
             fail("time.end", f"{end:.12g} s is {steps:.10g} system steps of {Dt:.12g} s (time.dt "
                  f"x ratio {self.system_ratio}); a run ends on a whole system step: use "
-                 f"{below * Dt:.12g} ({below} steps) or {above * Dt:.12g} ({above} steps)")
+                 f"{below * Dt:.12g} ({below} step{'s' * (below != 1)}) or {above * Dt:.12g} "
+                 f"({above} steps)")
 
     def _check_heat(self, continuum):
         if not continuum:
