@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import ROOT, raw_scene, refused, run_cli, write_scene
+from conftest import ROOT, raw_scene, refused, run_cli
 from solver.errors import SceneError
 
 
@@ -50,6 +50,14 @@ def test_every_multiple_of_the_system_step_is_accepted():
         assert parsed(network(end, dt, ratio)).n_system_steps == n
         with pytest.raises(SceneError, match="time.end"):
             parsed(network((n + 0.5) * ratio * dt, dt, ratio))
+
+
+def test_long_runs_get_no_looser_tolerance():
+    """At 9e8 steps a relative 1e-9 would be most of a step: the tolerance is
+    at most 1e-3 of a step (a decimal end's rounding is ~1e-7 of one there)."""
+    assert parsed(network(0.900000001, 1e-9)).n_system_steps == 900_000_001
+    with pytest.raises(SceneError, match=r"time.end: 0.90000000101 s is 900000001.01 system steps"):
+        parsed(network(0.90000000101, 1e-9))
 
 
 def test_end_between_system_steps_is_refused_with_the_nearest_ends(tmp_path):

@@ -23,8 +23,9 @@ from solver.scene.model_spec import ContinuumModel, NetworkModel, _model, _node_
 @dataclass(frozen=True)
 class Time:
     end: float = key("end time of the run [s]: a whole number of system steps (time.dt x the "
-                     "largest partition ratio; to a relative 1e-9, so 0.1 with steps of 1e-3 "
-                     "is 100); any other end is refused, naming the two nearest ends that are",
+                     "largest partition ratio; to a relative 1e-9 and at most 1e-3 of a step, "
+                     "so 0.1 with steps of 1e-3 is 100); the run ends exactly there, and any "
+                     "other end is refused, naming the two nearest whole-step ends",
                      positive=True)
     dt: float = key("base step [s]; a partition steps ratio*dt", positive=True)
 
@@ -33,7 +34,8 @@ NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
 # scene and probe names become file names and HDF5 groups: no path separators
 LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,99}$")
 MAX_SYSTEM_STEPS = 10**9   # a probe history is 16 bytes per system step
-END_TOLERANCE = 1e-9       # time.end / system step within this (relative) of a whole number
+END_TOLERANCE = 1e-9       # time.end / system step within this (relative; at most 1e-3 of a
+                           # step) of a whole number
 
 
 def check_label(value, path, what):
@@ -400,10 +402,9 @@ class Scene:
         if steps > MAX_SYSTEM_STEPS:
             fail("time.end", f"{end:.12g} s is {steps:.3g} system steps of {Dt:.12g} s; at most "
                  f"{MAX_SYSTEM_STEPS:.0e} are run (histories are kept in memory)")
-        n = round(steps)
-        if abs(steps - n) > END_TOLERANCE * steps:
+        if abs(steps - round(steps)) > min(END_TOLERANCE * steps, 1e-3):
             below, above = math.floor(steps), math.floor(steps) + 1
-            fail("time.end", f"{end:.12g} s is {steps:.10g} system steps of {Dt:.12g} s (time.dt "
+            fail("time.end", f"{end:.12g} s is {steps:.12g} system steps of {Dt:.12g} s (time.dt "
                  f"x ratio {self.system_ratio}); a run ends on a whole system step: use "
                  f"{below * Dt:.12g} ({below} step{'s' * (below != 1)}) or {above * Dt:.12g} "
                  f"({above} steps)")
