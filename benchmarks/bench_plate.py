@@ -44,9 +44,9 @@ WIDTH = 0.1
 
 def run(tmp: Path, every: int, ranks: int = 1) -> Path:
     out = tmp / f"plate_e{every}_n{ranks}.h5"
-    end = START + HEATING * every * DT_SYS / STEP
+    end = int((START + HEATING * every * DT_SYS / STEP) / DT_SYS + 1e-9) * DT_SYS  # whole steps
     cmd = [sys.executable, "-m", "solver", str(SCENE), "--set", f"heat.every={every}",
-           "--set", f"time.end={end:.6e}", "--set", f"output.file={out}",
+           "--set", f"time.end={end:.12g}", "--set", f"output.file={out}",
            "--set", "output.progress=0"]
     if ranks > 1:
         mpiexec = os.environ.get("MTS_MPIEXEC", "mpiexec")

@@ -51,11 +51,17 @@ PULSE = ("loads=[{group: left, kind: rectangular, amplitude: 1.0e4, duration: 1.
 
 
 def transition(layers, ratio, *more):
+    """The config at ``layers`` and FE step ``ratio`` x the DE step, to the last
+    whole system step at or before 75 us (a run ends on a system step)."""
+    dt = float(next((m.split("=")[1] for m in more if m.startswith("time.dt=")), 1.4e-8))
+    end = int(7.5e-5 / (ratio * dt) + 1e-9) * ratio * dt
     return ("configs/wave_bar_transition.yaml",
-            [f"model.mesh_parameters.layers={layers}", f"partitions.fem.ratio={ratio}", *more])
+            [f"model.mesh_parameters.layers={layers}", f"partitions.fem.ratio={ratio}",
+             f"time.end={end:.12g}", *more])
 
 
-RUNS = [("space multiscale (overlap)", "-", 1, ("configs/wave_bar.yaml", [PULSE]))] + \
+RUNS = [("space multiscale (overlap)", "-", 1, ("configs/wave_bar.yaml",
+                                                [PULSE, f"time.end={5357 * 1.4e-8:.12g}"]))] + \
     [(f"transition, {n} layers", n, n - 1, transition(n, n - 1)) for n in (2, 3, 4, 5)] + \
     [("transition, 5 layers, ratio 1", 5, 1, transition(5, 1)),
      ("5 layers, band_motion linear", 5, 4, transition(5, 4, "coupling.band_motion=linear")),

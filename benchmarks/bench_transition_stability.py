@@ -44,7 +44,7 @@ def short_bar(layers, ratio, dt, beta_r, lattice_E=None, newmark_beta=0.0, motio
         raw["model"]["lattice"]["E"] = lattice_E
     raw["partitions"][0].update(ratio=ratio, beta=newmark_beta)
     raw["coupling"]["band_motion"] = motion
-    raw.update(time={"end": 1e-6, "dt": dt}, guard={"stable_step": False}, reference="none",
+    raw.update(time={"end": max(round(1e-6 / (ratio * dt)), 1) * ratio * dt, "dt": dt}, guard={"stable_step": False}, reference="none",
                probes=[], loads=[], damping={"beta": beta_r},
                output={"file": "/tmp/bench_transition_stability.h5"})
     if not beta_r:

@@ -73,8 +73,13 @@ def main(argv=None):
     ap.add_argument("petsc", nargs="*", help="PETSc options for every run (after --)")
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp())
-    base = [f"model.mesh_parameters.nc={args.nc}", f"time.end={args.end}"]
-    ref = run(base + list(EXPLICIT), tmp / "explicit.h5", petsc=args.petsc)
+    base = [f"model.mesh_parameters.nc={args.nc}"]
+
+    def end(m):
+        """The last whole system step of m x 2e-6 s at or before --end (a run
+        ends on a system step)."""
+        return f"time.end={int(args.end / (m * 2e-6) + 1e-9) * m * 2e-6:.12g}"
+    ref = run(base + [end(1)] + list(EXPLICIT), tmp / "explicit.h5", petsc=args.petsc)
     scale = np.abs(ref["u"]).max()
     lines = [f"# u_tube (seed 002 §4), nc = {args.nc}, {args.end:g} s, explicit step 2e-6 s"
              + (f", PETSc options {' '.join(args.petsc)}" if args.petsc else ""), "",
@@ -98,7 +103,7 @@ def main(argv=None):
     last = None
     for scheme in args.schemes.split(","):
         for m in [int(x) for x in args.ratios.split(",")]:
-            sets = base + [f"coupling.scheme={scheme}", f"partitions.implicit.ratio={m}"]
+            sets = base + [end(m), f"coupling.scheme={scheme}", f"partitions.implicit.ratio={m}"]
             r = run(sets, tmp / f"{scheme}{m}.h5", petsc=args.petsc)
             row(scheme, m, 1, r)
             curves.append((f"{scheme}, m = {m}", r))

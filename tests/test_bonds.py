@@ -85,7 +85,7 @@ def tension(tmp_path):
     raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
                     damping__beta=0.0)
     raw["loads"][0]["direction"] = [-1.0, 0.0]
-    raw["time"]["end"] = 3.4e-5                   # the breaks start at 31.7 us
+    raw["time"]["end"] = 3.3992e-5                # 2428 steps; the breaks start at 31.7 us
     return run_scene(raw, tmp_path)
 
 
@@ -115,7 +115,7 @@ def test_the_energy_audit_of_a_damped_breaking_run_closes(tmp_path):
     raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
                     damping__beta=5e-9, damping__alpha=2e4)
     raw["loads"][0]["direction"] = [-1.0, 0.0]
-    raw["time"]["end"] = 3.4e-5
+    raw["time"]["end"] = 3.3992e-5                # 2428 steps of 1.4e-8 s
     res = run_scene(raw, tmp_path)
     e = res.energy
     released = res.partitions["dem"]["released_energy"]
@@ -209,7 +209,7 @@ def crack(contact, tmp_path):
     raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
                     damping__beta=2e-9)
     raw["model"]["lattice"]["contact"] = contact
-    raw["time"]["end"] = 9.0e-5
+    raw["time"]["end"] = 8.9992e-5                # 6428 steps of 1.4e-8 s
     raw["reference"] = "none"
     raw["loads"] = [dict(raw["loads"][0], direction=[-1.0, 0.0]),
                     dict(raw["loads"][0], start=2.0e-5, duration=3.0e-5)]
@@ -233,7 +233,7 @@ def test_contact_raises_the_dem_critical_step_bound(tmp_path):
     from solver.partitions.contact import coordination
     plain = dem_of(nonlinear(), tmp_path)
     with_c = dem_of(nonlinear(model__lattice__contact={"stiffness": 1.68e7},
-                              time__dt=5e-9), tmp_path)
+                              time__dt=5e-9, time__end=7.5e-5), tmp_path)   # 3750 steps
     w0 = plain[0].scheme.freqs["dem"][0].omega_max
     w1 = with_c[0].scheme.freqs["dem"][0].omega_max
     m_min = with_c[1].mass[:with_c[1].n_own].min()
@@ -258,7 +258,7 @@ def test_particle_fields_show_the_damage(tmp_path):
     raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
                     damping__beta=0.0)
     raw["loads"][0]["direction"] = [-1.0, 0.0]
-    raw["time"]["end"] = 3.4e-5
+    raw["time"]["end"] = 3.3992e-5                # 2428 steps of 1.4e-8 s
     raw["output"] = {"file": str(tmp_path / "d.h5"), "fields": {"every": 800}, "progress": 0}
     proc = run_cli([write_scene(tmp_path / "d.yaml", raw)])
     assert proc.returncode == 0, proc.stderr
@@ -283,7 +283,7 @@ def test_particle_stress_follows_the_current_bonds(tmp_path):
     raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
                     damping__beta=0.0)
     raw["loads"][0]["direction"] = [-1.0, 0.0]
-    raw["time"]["end"] = 4.5e-5
+    raw["time"]["end"] = 4.4996e-5                # 3214 steps of 1.4e-8 s
     raw["reference"] = "none"
     raw["probes"] = [{"name": "F", "at": [0.159, 0.0012]}]          # on the crack's face
     res = run_scene(raw, tmp_path)

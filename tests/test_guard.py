@@ -11,6 +11,7 @@ def test_unstable_step_is_refused_before_stepping(tmp_path):
     out = tmp_path / "out.h5"
     raw["output"] = {"file": str(out)}
     raw["time"]["dt"] = 0.3            # fem steps 1.5 s; its critical step is 2/omega_max ~ 1.04 s
+    raw["time"]["end"] = 21.0          # 14 system steps
     proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
     assert proc.returncode == 2, proc.stderr
     line, = proc.stderr.strip().splitlines()

@@ -69,6 +69,7 @@ def test_unstable_reference_step_is_refused(tmp_path):
     raw = raw_scene("six_dof")
     raw["reference"] = {"kind": "monolithic", "dt": 1.2, "integrator": "verlet"}  # omega*dt 2.3
     raw["time"]["dt"] = 0.1
+    raw["time"]["end"] = 21.6                      # 18 system steps of 1.2 s
     raw["partitions"][0]["ratio"] = 12
     raw["output"] = {"file": str(tmp_path / "o.h5")}
     proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])

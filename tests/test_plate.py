@@ -15,7 +15,7 @@ def strong_laser(tmp_path, n):
     raw = raw_scene("plate_fracture")
     raw["heat"]["laser"]["power_density"] = 1.0e7
     raw["heat"]["every"] = 25
-    raw["time"]["end"] = 5.9e-4                  # the first bond breaks at 0.524 ms
+    raw["time"]["end"] = 5.89792e-4              # 2633 steps; the first bond breaks at 0.524 ms
     raw["output"] = {"file": str(tmp_path / f"p{n}.h5"), "progress": 0, "energy_every": 50,
                      "fields": {"every": 1000}}
     proc = run_cli([write_scene(tmp_path / f"p{n}.yaml", raw)], n=n, timeout=300)
@@ -68,7 +68,7 @@ def test_particles_flying_apart_stop_the_run_marked_failed_with_the_last_checkpo
     raw = raw_scene("plate_fracture")
     raw["heat"]["laser"]["power_density"] = 1.0e7
     raw["heat"]["every"] = 25
-    raw["time"]["end"] = 8e-4
+    raw["time"]["end"] = 7.99904e-4                # 3571 system steps of 2.24e-7 s
     raw["guard"] = {"max_displacement": 5e-4}
     out = tmp_path / "lost.h5"
     raw["output"] = {"file": str(out), "progress": 0, "energy_every": 20,
@@ -95,7 +95,7 @@ def test_a_heated_run_restarts_to_the_same_crack_and_work(tmp_path):
     raw["heat"]["every"] = 25
     out = {}
     for name, path in zip(("whole", "short"), stop_and_restart(
-            raw, tmp_path, 5.9e-4, 4.6e-4, 1000, energy_every=50, n=2)):
+            raw, tmp_path, 5.89792e-4, 4.59872e-4, 1000, energy_every=50, n=2)):
         with h5py.File(path) as f:
             b = f["broken_bonds"][()]
             out[name] = (b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))],

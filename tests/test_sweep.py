@@ -73,7 +73,8 @@ def test_sweep_refuses_bad_lists_naming_the_option(args, message, tmp_path):
 
 def test_sweep_ends_with_the_exit_code_of_the_run_it_wraps(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "solver.tools.sweep", "configs/six_dof.yaml",
-                           "--ratios", "1", "--set", "time.dt=3", "--out", str(tmp_path)],
+                           "--ratios", "1", "--set", "time.dt=3", "--set", "time.end=30",
+                           "--out", str(tmp_path)],
                           cwd=ROOT, capture_output=True, text=True,
                           env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=120)
     assert proc.returncode == 2                        # the run's: an unstable step

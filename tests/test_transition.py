@@ -107,7 +107,7 @@ def test_wave_bar_transition_matches_the_1d_wave(tmp_path):
 def test_ratio_beyond_the_coupled_critical_step_is_refused(tmp_path):
     out = tmp_path / "x.h5"
     proc = run_cli(["configs/wave_bar_transition.yaml", "--set", "partitions.fem.ratio=5",
-                    "--set", f"output.file={out}"])
+                    "--set", "time.end=7.497e-5", "--set", f"output.file={out}"])   # 1071 steps
     assert proc.returncode == 2, proc.stderr
     line, = proc.stderr.strip().splitlines()
     assert "partition 'fem': step 7e-08 s (ratio 5" in line
@@ -154,7 +154,8 @@ def short_bar(ratio, dt, beta_r, newmark_beta=0.0):
     raw = raw_scene("wave_bar_transition")
     raw["model"]["mesh_parameters"] = {"layers": 5, "L": 0.0096, "x1": 0.0024, "x2": 0.0072}
     raw["partitions"][0].update(ratio=ratio, beta=newmark_beta)
-    raw.update(time={"end": 1e-6, "dt": dt}, guard={"stable_step": False}, reference="none",
+    end = max(round(1e-6 / (ratio * dt)), 1) * ratio * dt      # a whole number of system steps
+    raw.update(time={"end": end, "dt": dt}, guard={"stable_step": False}, reference="none",
                probes=[], loads=[], damping={"beta": beta_r})
     return raw
 
@@ -283,7 +284,7 @@ def test_fields_show_fe_and_band_cells_and_the_particles(tmp_path):
     cells (with their stress), the particle file the core particles."""
     import meshio
     raw = raw_scene("wave_bar_transition")
-    raw["time"]["end"] = 2.0e-5
+    raw["time"]["end"] = 1.9992e-5                                # 357 system steps
     raw["output"] = {"file": str(tmp_path / "f.h5"), "fields": {"every": 100}, "progress": 0}
     proc = run_cli([write_scene(tmp_path / "f.yaml", raw)])
     assert proc.returncode == 0, proc.stderr
@@ -303,7 +304,7 @@ def test_monolithic_reference_of_a_transition_scene(tmp_path):
     bonds) as one explicit partition: the transition run at FE step = DE step
     matches it at A, B and C once the pulse has crossed the DEM region."""
     raw = raw_scene("wave_bar_transition")
-    raw["time"] = {"end": 5.0e-5, "dt": 1.4e-8}
+    raw["time"] = {"end": 4.9994e-5, "dt": 1.4e-8}                # 3571 steps
     raw["partitions"][0]["ratio"] = 1
     raw["reference"] = {"kind": "monolithic", "dt": 7e-9, "cache": False}
     res = run_scene(raw, tmp_path)

@@ -15,7 +15,7 @@ import numpy as np
 
 from solver.model import data as model_data
 from solver.scene.model_spec import DOF_NAMES
-from solver.scene.schema import fail
+from solver.scene.schema import fail, shown
 
 
 def dof(scene, data) -> int:
@@ -37,6 +37,8 @@ def bind(scene):
     if zone is not None:
         n += zone.n_core
     owned = _owned_nodes(scene, data, n, zone)
+    if continuum:
+        _check_free(scene, data, owned, d)
     loads = []
     for i, ld in enumerate(scene.loads):
         if ld.group is not None:
@@ -107,8 +109,11 @@ def _check_continuum(spec, mesh):
     if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
         fail("model.material.kind", f"{kind} needs a plane mesh (z = const); this surface "
              f"spans {mesh.z_span:.3g} m in z: use shell")
+    if kind == "shell":
+        _check_wall(mesh, spec.body, spec.material.thickness, "model.material.thickness")
     for i, part in enumerate(spec.shells):
         triangles(mesh, part.group, f"model.shells[{i}].group")
+        _check_wall(mesh, part.group, part.thickness, f"model.shells[{i}].thickness")
     names = DOF_NAMES if kind == "shell" or spec.shells else DOF_NAMES[:mesh.dim]
     for i, c in enumerate(spec.constraints):
         mesh.group(c.group, f"model.constraints[{i}].group")
@@ -120,6 +125,46 @@ def _check_continuum(spec, mesh):
         from solver.model import transition
         return transition.of(spec, mesh)
     return None
+
+
+THINNEST_WALL = 1e-6   # a shell wall is thicker than this x its smallest element edge
+
+
+def _check_wall(mesh, group, thickness, key):
+    """A shell's thickness against its element size: bending goes as t^3 and a
+    node's rotary inertia as t^3 A, so a wall a millionth of its elements' size
+    or thinner is no shell to step (t^3 underflows, the step has no scale)."""
+    from solver.model.shell_model import triangles
+    conn, _ = triangles(mesh, group, key)
+    tri = mesh.points[conn]
+    edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+    h = float(edges[edges > 0].min()) if (edges > 0).any() else 0.0
+    if thickness <= THINNEST_WALL * h:
+        fail(key, f"{thickness:g} m is too thin for shell group {group!r}: a wall must be "
+             f"thicker than {THINNEST_WALL:g} x its smallest element edge ({h:.3g} m), i.e. "
+             f"above {THINNEST_WALL * h:.3g} m")
+
+
+def _check_free(scene, data, owned, d):
+    """Every partition has a DOF that moves: a partition whose every node has
+    every DOF held (model.fixed, model.constraints) has nothing to step."""
+    from solver.model.continuum import fixed_dofs
+    n_mesh = model_data.n_nodes(data)
+    held = fixed_dofs(scene, data, n_mesh, d).reshape(n_mesh, d)
+    spec = scene.model
+    if spec.shells:                                  # solid-only nodes never rotate
+        on_shell = np.zeros(n_mesh, bool)
+        for part in spec.shells:
+            on_shell[data.group(part.group).cells["tri3"]] = True
+        held[~on_shell, 3:] = True
+    free = ~held.all(axis=1)
+    for p, nodes in enumerate(owned):
+        nodes = np.asarray(nodes, dtype=np.int64)
+        if nodes.size and not free[nodes[nodes < n_mesh]].any() and not (nodes >= n_mesh).any():
+            part = scene.partitions[p]
+            fail(f"partitions[{p}]", f"partition '{part.name}' has no free DOF: every DOF of its "
+                 f"{nodes.size} nodes is held by model.fixed or model.constraints, so nothing "
+                 "would move (free some, or leave those nodes out)")
 
 
 def _used(data, body, zone, n, shells=()):
@@ -171,6 +216,13 @@ def _owned_nodes(scene, data, n, zone=None) -> list[tuple[int, ...]]:
                      f"node {node} is owned by partitions '{first}' and '{part.name}'")
         owner[nodes] = p
         out.append(tuple(nodes.tolist()))
+    for p, nodes in enumerate(out):
+        if not nodes:
+            part = scene.partitions[p]
+            where = (f"the nodes of group {shown(part.group)} that the body's cells use all "
+                     "belong to earlier partitions" if part.group is not None else
+                     "its nodes belong to earlier partitions")
+            fail(f"partitions[{p}]", f"partition '{part.name}' owns no node ({where})")
     # mesh nodes no body cell uses (a geometry kernel's centre point, say) are left out
     orphans = np.flatnonzero((owner < 0) & used)
     if orphans.size:

@@ -61,9 +61,10 @@ class Mesh:
 
     def group(self, name: str, where: str = "") -> Group:
         if name not in self.groups:
+            from solver.scene.schema import shown
             have = ", ".join(f"{g} (dim {self.groups[g].dim})" for g in sorted(self.groups))
             raise SceneError(f"{where + ': ' if where else ''}mesh has no physical group "
-                             f"{name!r}; it has: {have or 'none'}")
+                             f"{shown(name)}; it has: {have or 'none'}")
         return self.groups[name]
 
 

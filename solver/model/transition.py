@@ -179,6 +179,7 @@ def build(spec, mesh) -> Transition:
     if not is_core.any():
         raise SceneError(f"model.lattice.region: no lattice site of spacing {a:g} m lies in "
                          f"region {lat.region!r} outside the band")
+    _check_tiling(lat, pts[nodes], pts[region.nodes])
 
     n_mesh = len(pts)
     band_ids, core_ids = np.flatnonzero(is_band), np.flatnonzero(is_core)
@@ -217,6 +218,62 @@ def build(spec, mesh) -> Transition:
     node_mass = emb.to_nodes(mass[band_ids], n_mesh)
     return Transition(n_mesh, grid.points[core_ids], mass[core_ids], bonds, blocks, node_mass,
                       emb, grid.points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a)
+
+
+TILE_TOLERANCE = 1e-6     # a width is a whole number of spacings to this (in spacings)
+
+
+def _widths(zone_pts, region_pts) -> list[tuple[str, str, float]]:
+    """(what, axis, width) along each axis: the zone (band and region
+    together), the band below the region, the region, the band above it (in
+    this order, each starting where a lattice line lies once the ones before
+    it tile)."""
+    lo, hi = zone_pts.min(axis=0), zone_pts.max(axis=0)
+    rlo, rhi = region_pts.min(axis=0), region_pts.max(axis=0)
+    out = []
+    for d, axis in enumerate("xyz"[:len(lo)]):
+        out += [("band and region together", axis, hi[d] - lo[d]),
+                ("the band below the region", axis, rlo[d] - lo[d]),
+                ("the region", axis, rhi[d] - rlo[d]),
+                ("the band above the region", axis, hi[d] - rhi[d])]
+    return out
+
+
+def tiles(widths, a) -> bool:
+    return all(abs(w / a - round(w / a)) <= TILE_TOLERANCE * max(1.0, w / a) for w in widths)
+
+
+def tiling_spacings(widths, a) -> tuple[float | None, float | None]:
+    """The spacings nearest ``a`` below and above it that tile every width:
+    the smallest width divided by a whole number (None where none is found)."""
+    base = min(widths)
+    n0 = base / a
+    below = next((base / n for n in range(max(1, int(np.ceil(n0 - 1e-9))), int(4 * n0) + 100)
+                  if base / n < a and tiles(widths, base / n)), None)
+    above = next((base / n for n in range(max(1, int(np.floor(n0 + 1e-9))), 0, -1)
+                  if base / n > a and tiles(widths, base / n)), None)
+    return below, above
+
+
+def _check_tiling(lat, zone_pts, region_pts):
+    """The lattice, laid from the zone's lower corner, must end on its upper
+    corner and on the region's edges: every width of band and region (along
+    each axis) a whole number of spacings.  Otherwise it stops short of the
+    band's far edge (the DEM region loses mass, the interface reflects)."""
+    a = lat.spacing
+    widths = [(what, axis, w) for what, axis, w in _widths(zone_pts, region_pts)
+              if w > TILE_TOLERANCE * a]
+    bad = next(((what, axis, w) for what, axis, w in widths if not tiles([w], a)), None)
+    if bad is None:
+        return
+    what, axis, w = bad
+    below, above = tiling_spacings([x for _, _, x in widths], a)
+    near = " or ".join(f"{x:.6g}" for x in (below, above) if x is not None) or "none near it"
+    raise SceneError(f"model.lattice.spacing: {a:g} m does not tile the transition zone: "
+                     f"{what} (band {lat.transition!r}, region {lat.region!r}) is {w:.6g} m "
+                     f"wide in {axis}, {w / a:.4g} spacings, so the lattice stops "
+                     f"{(w / a - np.floor(w / a + TILE_TOLERANCE)) * a:.3g} m short of its edge; "
+                     f"spacings that tile every width: {near} m")
 
 
 def _check_layer(mesh, fe_cells, region, band, lat):

@@ -37,6 +37,12 @@ class Newmark:
     gamma: float = 0.5
     implicit: bool = False
     work = ("ut", "vt")
+    about = ("fem partitions, integrator explicit or implicit: Newmark predictor-corrector "
+             "(partitions[].beta, gamma; default 0.25, 0.5), second order for gamma 0.5. "
+             "explicit: lumped mass, no solve; stable for omega_max h < 2 whatever beta "
+             "(beta 0: central difference). implicit: M + gamma h C + beta h^2 K solved once "
+             "per step (a KSP, PETSc options with the partition's prefix); unconditionally "
+             "stable for 2 beta >= gamma >= 0.5, else omega_max h < 1/sqrt(gamma/2 - beta)")
 
     @property
     def name(self) -> str:
@@ -113,6 +119,9 @@ class VelocityVerlet:
 
     name = "verlet"
     work = ()
+    about = ("dem partitions, integrator verlet: velocity Verlet, second order, symplectic "
+             "without damping (first order in the damping terms); stable for omega_max h < 2, "
+             "2 (sqrt(1 + xi^2) - xi) with damping ratio xi at omega_max")
 
     def critical_omega_h(self) -> float:
         return 2.0

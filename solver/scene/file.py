@@ -10,7 +10,7 @@ from pathlib import Path
 import yaml
 
 from solver.errors import SceneError
-from solver.scene.schema import parse
+from solver.scene.schema import parse, shown
 from solver.scene.sections import Scene
 
 def apply_override(raw: dict, assignment: str) -> None:
@@ -37,6 +37,8 @@ def apply_override(raw: dict, assignment: str) -> None:
                 return
             node = node[idx]
         elif isinstance(node, dict):
+            if re.fullmatch(r"[0-9]{1,18}", part) and int(part) in node:
+                part = int(part)                # initial.displacement.3: node 3's entry
             if last:
                 node[part] = value
                 return
@@ -48,15 +50,30 @@ def apply_override(raw: dict, assignment: str) -> None:
 
 
 def _list_index(items: list, part: str, where: str) -> int:
-    if part.lstrip("-").isdigit():
+    if re.fullmatch(r"-?[0-9]{1,18}", part):
         idx = int(part)
         if -len(items) <= idx < len(items):
             return idx
-        raise SceneError(f"--set {where}: index out of range ({len(items)} items)")
+        raise SceneError(f"--set {where}: index {idx} out of range ({_choices(items)})")
     for idx, item in enumerate(items):
         if isinstance(item, dict) and item.get("name") == part:
             return idx
-    raise SceneError(f"--set {where}: no item named {part!r}")
+    raise SceneError(f"--set {where}: no item named {shown(part)} ({_choices(items)})")
+
+
+def _choices(items: list) -> str:
+    """What addresses an item of ``items``: its indices and, for named items
+    (partitions, probes), its names (the first 20)."""
+    if not items:
+        return "the list is empty"
+    names = [shown(item["name"], 40) for item in items
+             if isinstance(item, dict) and isinstance(item.get("name"), str)]
+    text = f"{len(items)} item{'s' if len(items) > 1 else ''}: index 0" + \
+        (f"-{len(items) - 1}" if len(items) > 1 else "")
+    if names:
+        more = f", ... ({len(names)} names)" if len(names) > 20 else ""
+        text += f" or a name: {', '.join(names[:20])}{more}"
+    return text
 
 
 MAX_ALIASES = 100        # alias uses per document: anchors are for reuse, not expansion bombs
@@ -91,7 +108,7 @@ class _Loader(yaml.SafeLoader):
                     None, None, "a mapping key must be a plain value", key_node.start_mark)
             if dup:
                 raise yaml.constructor.ConstructorError(
-                    None, None, f"duplicate key {key!r}", key_node.start_mark)
+                    None, None, f"duplicate key {shown(key)}", key_node.start_mark)
             seen.add(key)
         return super().construct_mapping(node, deep)
 

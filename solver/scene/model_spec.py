@@ -10,7 +10,7 @@ from typing import Literal
 
 
 from solver.model import generators
-from solver.scene.schema import convert, fail, key, tagged
+from solver.scene.schema import convert, fail, key, shown, tagged
 
 GROUND = -1  # node id of the fixed end of a spring
 
@@ -19,7 +19,7 @@ def _node_ref(value, path):
     if value == "ground":
         return GROUND
     if isinstance(value, bool) or not isinstance(value, int):
-        fail(path, f"expected a node id or 'ground', got {value!r}")
+        fail(path, f"expected a node id or 'ground', got {shown(value)}")
     if value < 0:
         fail(path, f"node id must be non-negative, got {value}")
     return value
@@ -36,15 +36,15 @@ class Spring:
 
 def _springs(value, path):
     if not isinstance(value, list):
-        fail(path, f"expected a list of [node_i, node_j, stiffness], got {value!r}")
+        fail(path, f"expected a list of [node_i, node_j, stiffness], got {shown(value)}")
     out = []
     for n, item in enumerate(value):
         p = f"{path}[{n}]"
         if not isinstance(item, list) or len(item) != 3:
-            fail(p, f"expected [node_i, node_j, stiffness], got {item!r}")
+            fail(p, f"expected [node_i, node_j, stiffness], got {shown(item)}")
         i, j = _node_ref(item[0], p), _node_ref(item[1], p)
         if i == j:
-            fail(p, f"spring connects {item[0]!r} to itself")
+            fail(p, f"spring connects {shown(item[0])} to itself")
         k = convert(float, item[2], p, {"positive": True})
         out.append(Spring(i, j, k))
     return tuple(out)
@@ -124,7 +124,7 @@ class NetworkModel:
             fail(path, "give exactly one of masses + springs, generator, file "
                  f"({', '.join(given) or 'none'} given)")
         if self.file is not None and not self.file.strip():
-            fail(f"{path}.file", f"{self.file!r}: needs a file name")
+            fail(f"{path}.file", f"{shown(self.file)}: needs a file name")
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,9 @@ class Material:
         "plane_stress (2D, with thickness), plane_strain (2D), solid (3D), or shell (a surface "
         "of triangles in 3D, 6 DOFs per node: ux uy uz rx ry rz; docs/shells.md)", "solid")
     thickness: float | None = key("thickness [m]: out of plane (plane_stress, default 1) or "
-                                  "the shell wall's (shell, required)", None, positive=True)
+                                  "the shell wall's (shell, required; more than 1e-6 x the "
+                                  "shell's smallest element edge, where bending ~ t^3 and the "
+                                  "rotary inertia lose all scale)", None, positive=True)
     drilling: float = key("shell: the drilling-rotation penalty gamma / G of the membrane "
                           "(Hughes-Brezzi, on Allman's one spurious mode)", 1e-2, positive=True)
     tie: float = key("shells on a solid body (model.shells): the penalty gamma / G tying a shell "
@@ -208,8 +210,12 @@ class ContactSpec:
 class LatticeSpec:
     region: str = key("physical group (cells) filled with the bonded lattice")
     spacing: float = key("lattice spacing a [m]; without a transition band the mesh must have a "
-                         "node at every lattice site of the region and one spacing around it",
-                         positive=True)
+                         "node at every lattice site of the region and one spacing around it; "
+                         "with one, the lattice is laid from the band's lower corner and every "
+                         "width along each axis (band and region together, the band on either "
+                         "side, the region) must be a whole number of spacings (to 1e-6), so "
+                         "that it ends on the band's far edge: otherwise refused, naming the "
+                         "nearest spacings that tile", positive=True)
     E: float | None = key("Young's modulus of the lattice [Pa] when it differs from the model's "
                           "material (a stiffer or softer DEM region); default: model.material.E",
                           None, positive=True)
@@ -245,7 +251,8 @@ class LatticeSpec:
 @dataclass(frozen=True)
 class ShellPart:
     group: str = key("physical surface group of shell triangles joined to the solid body")
-    thickness: float = key("the shell wall's thickness [m]", positive=True)
+    thickness: float = key("the shell wall's thickness [m]; more than 1e-6 x the surface's "
+                           "smallest element edge", positive=True)
 
 
 @dataclass(frozen=True)
@@ -256,9 +263,12 @@ class ContinuumModel:
     mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the scene file")
     material: Material = key("linear elastic material")
     body: str = key("physical group of the body's cells", "solid")
-    fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components)", ())
+    fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components); a "
+                                 "partition must keep a free DOF (one whose every DOF is held "
+                                 "has nothing to step and is refused)", ())
     constraints: tuple[Constraint, ...] = key("chosen DOFs held at zero on physical groups "
-                                              "(symmetry planes, supports)", ())
+                                              "(symmetry planes, supports); with model.fixed "
+                                              "they must leave each partition a free DOF", ())
     shells: tuple[ShellPart, ...] = key(
         "solid bodies: shell surfaces (triangles, the body's material) sharing nodes with the "
         "solid; every node then has 6 DOFs, a shell node on the solid has its rotation tied to "
@@ -288,20 +298,20 @@ def _node_set(value, path):
     """Node ids as a list of ids and {range: [first, end)} items, or one range."""
     items = [value] if isinstance(value, dict) else value
     if not isinstance(items, list):
-        fail(path, f"expected a list of node ids or ranges, got {value!r}")
+        fail(path, f"expected a list of node ids or ranges, got {shown(value)}")
     out = []
     for n, item in enumerate(items):
         p = f"{path}[{n}]"
         if isinstance(item, dict):
             if set(item) != {"range"}:
-                fail(p, f"a node range is {{range: [first, end]}}, got {item!r}")
+                fail(p, f"a node range is {{range: [first, end]}}, got {shown(item)}")
             r = item["range"]
             if (not isinstance(r, list) or len(r) != 2 or
                     any(isinstance(x, bool) or not isinstance(x, int) for x in r) or not 0 <= r[0] < r[1]):
-                fail(f"{p}.range", f"expected [first, end] with 0 <= first < end, got {r!r}")
+                fail(f"{p}.range", f"expected [first, end] with 0 <= first < end, got {shown(r)}")
             out.extend(range(r[0], r[1]))
         elif isinstance(item, int) and not isinstance(item, bool) and item >= 0:
             out.append(item)
         else:
-            fail(p, f"expected a node id or {{range: [first, end]}}, got {item!r}")
+            fail(p, f"expected a node id or {{range: [first, end]}}, got {shown(item)}")
     return tuple(out)

@@ -40,11 +40,76 @@ def tagged(tag: str, variants: dict):
     """A ``parse`` hook for a mapping whose ``tag`` key picks the section class."""
     def parse_variant(value, path):
         if not isinstance(value, dict):
-            fail(path, f"expected a mapping with a {tag} ({', '.join(variants)}), got {value!r}")
+            fail(path, f"expected a mapping with a {tag} ({', '.join(variants)}), got {shown(value)}")
         if value.get(tag) not in variants:
-            fail(f"{path}.{tag}", f"{value.get(tag)!r} is not one of {', '.join(variants)}")
+            fail(f"{path}.{tag}", f"{shown(value.get(tag))} is not one of {', '.join(variants)}")
         return parse(variants[value[tag]], value, path)
     return parse_variant
+
+
+SHOWN = 200   # characters of a value an error message echoes (the rest: "... (N characters)")
+
+
+def shown(value, limit: int = SHOWN) -> str:
+    """``repr(value)``, clipped to ``limit`` characters with "… (N characters)",
+    N the length of the whole repr.  The work is bounded by the value's distinct
+    objects, not its expansion: YAML aliases share one list many times over (an
+    alias bomb), and a list can hold itself (shown as [...], as repr does)."""
+    total = _repr_length(value, {}, set())
+    if total <= limit:
+        return repr(value)
+    out, size = [], 0
+    for chunk in _repr_chunks(value, set(), limit):
+        out.append(chunk)
+        size += len(chunk)
+        if size >= limit:
+            break
+    return f"{''.join(out)[:limit]}… ({total} characters)"
+
+
+def _repr_length(value, memo, open_) -> int:
+    if not isinstance(value, (list, tuple, dict)):
+        return len(repr(value))
+    if id(value) in open_:
+        return 5                                      # [...] / {...}
+    if id(value) in memo:
+        return memo[id(value)]
+    open_.add(id(value))
+    if isinstance(value, dict):
+        n = sum(_repr_length(k, memo, open_) + 2 + _repr_length(v, memo, open_)
+                for k, v in value.items())
+    else:
+        n = sum(_repr_length(v, memo, open_) for v in value)
+        if isinstance(value, tuple) and len(value) == 1:
+            n += 1                                    # (x,)
+    open_.discard(id(value))
+    n += 2 + 2 * max(len(value) - 1, 0)
+    memo[id(value)] = n
+    return n
+
+
+def _repr_chunks(value, open_, limit):
+    """repr(value) piece by piece (stopped by the caller after ``limit``)."""
+    if not isinstance(value, (list, tuple, dict)):
+        yield repr(value[:limit + 1] if isinstance(value, str) else value)
+        return
+    left, right = ("{", "}") if isinstance(value, dict) else \
+        ("[", "]") if isinstance(value, list) else ("(", ")")
+    if id(value) in open_:
+        yield f"{left}...{right}"
+        return
+    open_.add(id(value))
+    yield left
+    pairs = value.items() if isinstance(value, dict) else ((None, v) for v in value)
+    for n, (k, v) in enumerate(pairs):
+        if n:
+            yield ", "
+        if isinstance(value, dict):
+            yield from _repr_chunks(k, open_, limit)
+            yield ": "
+        yield from _repr_chunks(v, open_, limit)
+    open_.discard(id(value))
+    yield right
 
 
 def fail(path: str, message: str):
@@ -52,6 +117,8 @@ def fail(path: str, message: str):
 
 
 def _join(path: str, name) -> str:
+    if len(str(name)) > SHOWN:                       # an unknown key of a megabyte
+        name = shown(name)
     if isinstance(name, int):
         return f"{path}[{name}]"
     return f"{path}.{name}" if path else str(name)
@@ -66,7 +133,7 @@ def parse(cls, raw: Any, path: str = ""):
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):
-        fail(path, f"expected a mapping, got {_kind(raw)} {raw!r}")
+        fail(path, f"expected a mapping, got {_kind(raw)} {shown(raw)}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     for name in raw:
         if name not in fields:
@@ -110,7 +177,7 @@ def convert(tp, value, path: str, meta=None):
         if isinstance(value, dict) and len(sections) > 1:
             kinds = {typing.get_args(_hints(a)["kind"])[0]: a for a in sections}
             if value.get("kind") not in kinds:
-                fail(f"{path}.kind", f"{value.get('kind')!r} is not one of {', '.join(kinds)}")
+                fail(f"{path}.kind", f"{shown(value.get('kind'))} is not one of {', '.join(kinds)}")
             return convert(kinds[value["kind"]], value, path, {**meta, "parse": None})
         if len(inner) == 1 or (isinstance(value, dict) and len(sections) == 1):
             return convert(sections[0] if isinstance(value, dict) and sections else inner[0],
@@ -120,28 +187,30 @@ def convert(tp, value, path: str, meta=None):
                 return convert(a, value, path, {**meta, "parse": None})
             except SceneError:
                 pass
-        fail(path, f"{value!r} is not {' or '.join(type_name(a) for a in inner)}")
+        fail(path, f"{shown(value)} is not {' or '.join(type_name(a) for a in inner)}")
     if origin is Literal:
         if value not in args:
-            fail(path, f"{value!r} is not one of {', '.join(map(str, args))}")
+            fail(path, f"{shown(value)} is not one of {', '.join(map(str, args))}")
         return value
     if origin is tuple:
         if not isinstance(value, list):
-            fail(path, f"expected a list, got {_kind(value)} {value!r}")
+            fail(path, f"expected a list, got {_kind(value)} {shown(value)}")
         item = args[0]
         return tuple(convert(item, v, _join(path, i), {k: v2 for k, v2 in meta.items() if k != "parse"})
                      for i, v in enumerate(value))
     if origin is dict:
         if not isinstance(value, dict):
-            fail(path, f"expected a mapping, got {_kind(value)} {value!r}")
+            fail(path, f"expected a mapping, got {_kind(value)} {shown(value)}")
         kt, vt = args
-        return {convert(kt, k, _join(path, k)): convert(vt, v, _join(path, k), meta)
+        # integer keys (node ids) also as digits: --set initial.velocity.3=1.0
+        return {convert(kt, int(k) if kt is int and isinstance(k, str) and k.isdigit() and len(k) < 19 else k,
+                        _join(path, k)): convert(vt, v, _join(path, k), meta)
                 for k, v in value.items()}
     if dataclasses.is_dataclass(tp):
         return parse(tp, value, path)
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            fail(path, f"expected a number, got {_kind(value)} {value!r}")
+            fail(path, f"expected a number, got {_kind(value)} {shown(value)}")
         value = float(value)
         if not math.isfinite(value):
             fail(path, f"{value} is not a finite number")
@@ -149,16 +218,16 @@ def convert(tp, value, path: str, meta=None):
         return value
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            fail(path, f"expected an integer, got {_kind(value)} {value!r}")
+            fail(path, f"expected an integer, got {_kind(value)} {shown(value)}")
         _sign(value, path, meta)
         return value
     if tp is bool:
         if not isinstance(value, bool):
-            fail(path, f"expected true or false, got {_kind(value)} {value!r}")
+            fail(path, f"expected true or false, got {_kind(value)} {shown(value)}")
         return value
     if tp is str:
         if not isinstance(value, str):
-            fail(path, f"expected a string, got {_kind(value)} {value!r}")
+            fail(path, f"expected a string, got {_kind(value)} {shown(value)}")
         return value
     raise TypeError(f"unsupported annotation {tp!r} at {path}")
 
@@ -209,8 +278,8 @@ def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
             label = typing.get_args(_hints(variant)[tag])[0]
             rows += [(n, t, d, f"({label}) {doc}") for n, t, d, doc in describe(variant, f"{name}.")
                      if n != f"{name}.{tag}"]
-        if f.metadata.get("parse") is not None:
-            continue
+        if f.metadata.get("parse") is not None or f.metadata.get("variants"):
+            continue                                  # the variants' rows are listed above
         inner = tp
         if typing.get_origin(tp) is tuple:
             inner = typing.get_args(tp)[0]

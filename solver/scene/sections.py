@@ -10,18 +10,23 @@ network are checked when the scene is bound to its model data
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from typing import Literal
 
-from solver.scene.schema import fail, key
+from solver.scene.schema import fail, key, shown
 from solver.scene.heat_spec import HeatSpec
 from solver.scene.model_spec import ContinuumModel, NetworkModel, _model, _node_set
 
 
 @dataclass(frozen=True)
 class Time:
-    end: float = key("end time of the run [s]", positive=True)
+    end: float = key("end time of the run [s]: a whole number of system steps (time.dt x the "
+                     "largest partition ratio; to a relative 1e-9 and at most 1e-3 of a step, "
+                     "so 0.1 with steps of 1e-3 is 100); the run ends exactly there, and any "
+                     "other end is refused, naming the two nearest whole-step ends",
+                     positive=True)
     dt: float = key("base step [s]; a partition steps ratio*dt", positive=True)
 
 
@@ -29,11 +34,13 @@ NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
 # scene and probe names become file names and HDF5 groups: no path separators
 LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,99}$")
 MAX_SYSTEM_STEPS = 10**9   # a probe history is 16 bytes per system step
+END_TOLERANCE = 1e-9       # time.end / system step within this (relative; at most 1e-3 of a
+                           # step) of a whole number
 
 
 def check_label(value, path, what):
     if not LABEL.match(value):
-        fail(path, f"{value!r}: a {what} is 1-100 letters, digits, '_', '.', '+' or '-', not "
+        fail(path, f"{shown(value)}: a {what} is 1-100 letters, digits, '_', '.', '+' or '-', not "
                    "starting with '.' or '-' (it names files and HDF5 groups)")
 
 
@@ -61,7 +68,7 @@ class Partition:
         if bool(self.nodes) == (self.group is not None):
             fail(f"{path}.nodes", "give either nodes or group")
         if not NAME.match(self.name):
-            fail(f"{path}.name", f"{self.name!r} must be letters and digits, starting with a letter "
+            fail(f"{path}.name", f"{shown(self.name)} must be letters and digits, starting with a letter "
                  "(it becomes the PETSc options prefix)")
         if (self.method, self.integrator) not in self.SUPPORTED:
             ok = ", ".join(f"{m}+{i}" for m, i in sorted(self.SUPPORTED))
@@ -75,9 +82,10 @@ class Coupling:
         "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
         "state and exchange once per system step; staggered: seed 002, the explicit partition "
         "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
-        "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface, 1 rank); "
-        "conserving: energy-conserving multi-time-step coupling of an explicit fem or dem partition "
-        "and an implicit one at any ratio (stable by construction; docs/conserving.md, 1 or 2 ranks); "
+        "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface; network "
+        "models only, 1 rank); conserving: energy-conserving multi-time-step coupling of an "
+        "explicit fem or dem partition and an implicit one at any ratio (stable by construction; "
+        "no heat, linear bonds; docs/conserving.md, 1 or 2 ranks); "
         "transition: seed 003, needs model.lattice.transition: the dem partition sub-cycles "
         "over the band's motion, then the explicit fem partition steps with the particles' "
         "forces", "overlap")
@@ -223,7 +231,7 @@ class Output:
 
     def validate(self, path):
         if not self.file.strip() or self.file.endswith("/"):
-            fail(f"{path}.file", f"{self.file!r}: needs a file name")
+            fail(f"{path}.file", f"{shown(self.file)}: needs a file name")
 
 
 @dataclass(frozen=True)
@@ -317,15 +325,16 @@ class Scene:
                  "the FE's next displacement")
         for p, part in enumerate(self.partitions):
             if part.method == "dem" and part.group != lat.region:
-                fail(f"partitions[{p}].group", f"{part.group!r}: with a transition band a dem "
-                     f"partition holds the particles of model.lattice.region ({lat.region!r})")
+                fail(f"partitions[{p}].group", f"{shown(part.group)}: with a transition band a dem "
+                     f"partition holds the particles of model.lattice.region ({shown(lat.region)})")
             if part.method == "fem" and part.group == lat.region:
-                fail(f"partitions[{p}].group", f"{part.group!r} is the lattice region: its cells "
+                fail(f"partitions[{p}].group", f"{shown(part.group)} is the lattice region: its cells "
                      "only give the DEM region's shape")
 
     @property
     def n_system_steps(self) -> int:
-        return int(self.time.end / self.system_dt + 1e-9)
+        """time.end / system step, a whole number (checked in validate)."""
+        return max(round(self.time.end / self.system_dt), 1)
 
     @property
     def output_file(self) -> str:
@@ -346,8 +355,9 @@ class Scene:
             if part.group is not None and not continuum:
                 fail(f"partitions[{p}].group", "groups name mesh regions: continuum models only")
             if part.name in names:
-                fail(f"partitions[{p}].name", f"duplicate partition name {part.name!r}")
+                fail(f"partitions[{p}].name", f"duplicate partition name {shown(part.name)}")
             names.add(part.name)
+        self._check_scheme_model()
         if self.coupling.scheme in ("staggered", "gc", "conserving"):
             self._check_staggered()
         if self.coupling.band_motion != "predictor" and self.coupling.scheme != "transition":
@@ -360,12 +370,7 @@ class Scene:
         for p, part in enumerate(self.partitions):
             if big % part.ratio:
                 fail(f"partitions[{p}].ratio", f"{part.ratio} does not divide the largest ratio {big}")
-        steps = self.time.end / self.system_dt
-        if steps < 1 - 1e-9:
-            fail("time.end", f"{self.time.end} is shorter than one system step ({self.system_dt})")
-        if steps > MAX_SYSTEM_STEPS:
-            fail("time.end", f"{self.time.end} s is {steps:.3g} system steps of {self.system_dt:g} "
-                 f"s; at most {MAX_SYSTEM_STEPS:.0e} are run (histories are kept in memory)")
+        self._check_end()
         for i, ld in enumerate(self.loads):
             if ld.group is not None and not continuum:
                 fail(f"loads[{i}].group", "tractions on groups need a continuum model")
@@ -376,7 +381,7 @@ class Scene:
             if probe.at is not None and not continuum:
                 fail(f"probes[{i}].at", "coordinates need a continuum model")
             if probe.name in seen:
-                fail(f"probes[{i}].name", f"duplicate probe name {probe.name!r}")
+                fail(f"probes[{i}].name", f"duplicate probe name {shown(probe.name)}")
             seen.add(probe.name)
         if self.heat is not None:
             self._check_heat(continuum)
@@ -401,16 +406,52 @@ class Scene:
             if continuum and self.reference.integrator != "explicit":
                 fail("reference.integrator", "continuum references run the explicit fem integrator")
 
+    def _check_end(self):
+        """A run ends on a system step: time.end must be a whole number of them
+        (to END_TOLERANCE, relative), or it would stop short without a word."""
+        end, Dt = self.time.end, self.system_dt
+        steps = end / Dt
+        if steps < 1 - END_TOLERANCE:
+            fail("time.end", f"{end:.12g} s is shorter than one system step ({Dt:.12g} s)")
+        if steps > MAX_SYSTEM_STEPS:
+            fail("time.end", f"{end:.12g} s is {steps:.3g} system steps of {Dt:.12g} s; at most "
+                 f"{MAX_SYSTEM_STEPS:.0e} are run (histories are kept in memory)")
+        if abs(steps - round(steps)) > min(END_TOLERANCE * steps, 1e-3):
+            below, above = math.floor(steps), math.floor(steps) + 1
+            fail("time.end", f"{end:.12g} s is {steps:.12g} system steps of {Dt:.12g} s (time.dt "
+                 f"x ratio {self.system_ratio}); a run ends on a whole system step: use "
+                 f"{below * Dt:.12g} ({below} step{'s' * (below != 1)}) or {above * Dt:.12g} "
+                 f"({above} steps)")
+
     def _check_heat(self, continuum):
         if not continuum:
             fail("heat", "heat conduction needs a continuum model (a mesh to conduct on)")
         mat = self.model.material
+        if mat.kind == "shell" or self.model.shells:
+            fail("heat", "models with shells carry no heat (conduction needs plane or solid "
+                 "cells)")
         if self.heat.laser is not None and mat.kind != "plane_stress":
             fail("heat.laser", f"needs model.material.kind plane_stress (a thin plate heated "
                  f"through its thickness), not {mat.kind}")
         lat = self.model.lattice
         if self.heat.melting is not None and (lat is None or lat.break_strain is None):
             fail("heat.melting", "weakens breakable bonds: needs model.lattice.break_strain")
+
+    def _check_scheme_model(self):
+        """What a scheme cannot step, whatever its partitions (SUPPORT in
+        solver/coupling/schemes.py): refused here, before any mesh is read."""
+        scheme = self.coupling.scheme
+        if scheme == "gc" and self.model.kind != "network":
+            fail("coupling.scheme", f"gc supports network models only (springs between "
+                 f"masses), not a {self.model.kind} model: use staggered or conserving")
+        if scheme == "conserving":
+            if self.heat is not None:
+                fail("coupling.scheme", "conserving couples linear partitions without heat; "
+                     "this scene has heat (use overlap or staggered)")
+            lat = getattr(self.model, "lattice", None)
+            if lat is not None and lat.geometry != "linear":
+                fail("coupling.scheme", f"conserving couples linear partitions; "
+                     f"model.lattice.geometry is {lat.geometry} (use linear, or staggered)")
 
     def _check_staggered(self):
         parts, scheme = self.partitions, self.coupling.scheme

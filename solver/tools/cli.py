@@ -124,18 +124,25 @@ def print_keys(markdown=False):
 
 
 def print_schemes():
+    """Integrators and coupling schemes for users: what each is, what it
+    supports, its stability limit (the registry's texts, no code notes)."""
+    from solver.coupling.schemes import ABOUT, LIMIT, SUPPORT
     from solver.partitions import integrators
+    from solver.partitions.stability import TRANSITION_OMEGA_H
     from solver.scene import Coupling
-    for cls in integrators.CATALOGUE:
-        print(f"{cls.__name__}: {cls.__doc__.strip()}\n")
-    from solver.coupling.schemes import SUPPORT
     from solver.scene.schema import describe
-    print("coupling.scheme / coupling.external:")
+    print("Integrators (partitions[].integrator):")
+    for cls in integrators.CATALOGUE:
+        print(f"  {cls.about}\n")
+    bands = ", ".join(f"{k} {v:g}" for k, v in TRANSITION_OMEGA_H.items())
+    print("Coupling schemes (coupling.scheme):")
+    for name in SUPPORT:
+        print(f"  {name}: {ABOUT[name]}.\n    supports: {SUPPORT[name]}.\n    stability: "
+              f"{LIMIT[name].format(band_limits=bands)}.\n")
+    print("Other coupling keys:")
     for name, tp, default, doc in describe(Coupling):
-        print(f"  {name}: {tp} (default {default}) - {doc}")
-    print("\nsupported combinations:")
-    for scheme, text in SUPPORT.items():
-        print(f"  {scheme}: {text}")
+        if name != "scheme":
+            print(f"  coupling.{name}: {tp} (default {default}): {doc}")
 
 
 def load_on_root(comm, path, overrides):
