@@ -38,13 +38,29 @@ def describe(error: BaseException) -> str:
     return line if isinstance(error, RunFailed) else f"{type(error).__name__}: {line}"
 
 
+_setup = {"mpi": False, "pending": None}
+
+
 def _interrupt_setup(signum, frame):
-    raise KeyboardInterrupt(signal.Signals(signum).name)
+    name = signal.Signals(signum).name
+    if not _setup["mpi"]:
+        # a rank that left before MPI_Init would leave the others waiting in it
+        _setup["pending"] = name
+        return
+    raise KeyboardInterrupt(name)
+
+
+def mpi_started():
+    """MPI is up on every rank: an interrupt that came before it ends the run now."""
+    _setup["mpi"] = True
+    if _setup["pending"]:
+        raise KeyboardInterrupt(_setup["pending"])
 
 
 def guard_setup():
     """SIGINT and SIGTERM raise KeyboardInterrupt (with the signal's name) in the
     main thread: set-up ends with one line and exit 130 (:mod:`solver.tools.cli`).
+    Before :func:`mpi_started` the signal waits for MPI to be up on every rank.
     Installed first thing and again after PETSc's start-up, which installs
     handlers of its own."""
     for sig in (signal.SIGINT, signal.SIGTERM):

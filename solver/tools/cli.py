@@ -167,7 +167,7 @@ def main(argv=None) -> int:
     if argv[0] == "schemes":
         print_schemes()
         return 0
-    from solver.driver.stop import guard_setup
+    from solver.driver.stop import guard_setup, mpi_started
     guard_setup()                    # SIGINT/SIGTERM before stepping: one line, exit 130
     rank, comm = 0, None
     try:
@@ -178,6 +178,7 @@ def main(argv=None) -> int:
         from mpi4py import MPI
         comm = MPI.COMM_WORLD
         rank = comm.rank
+        mpi_started()
         check_launch(comm)
         scene, effective = load_on_root(comm, path, overrides)
         start_petsc(petsc_args)
