@@ -7,7 +7,8 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import ROOT, mpiexec, raw_scene, refused, run_cli, write_scene
+from conftest import ROOT, mpiexec, raw_scene, refused, run_cli, run_scene, write_scene
+from solver.errors import SceneError
 
 
 def laplacian(n):
@@ -142,12 +143,22 @@ def test_nothing_to_step_and_non_finite_operators():
     ("1e-200", "error: partition 'plate': M^-1 K has a NaN or infinite entry"),   # masses underflow
     ("1e-100", "error: partition 'plate': step 1.5e-06 s (ratio 1 x time.dt 1.5e-06 s) is "
                "unstable, critical step 1.71e-104 s (omega_max 1.169e+104 rad/s, Lanczos)")])
-def test_absurdly_thin_shells_are_refused_in_one_line(thickness, message, tmp_path):
+def test_absurdly_thin_shells_are_refused_in_one_line(thickness, message, tmp_path, monkeypatch):
     """Rotary inertia ~ t^3: at t = 1e-100 m omega_max is 1e104 rad/s (estimated
-    without overflow), at 1e-200 m the masses underflow to 0."""
+    without overflow), at 1e-200 m the masses underflow to 0.  The scene's own
+    rule (a wall thicker than 1e-6 x its smallest edge) refuses both first; with
+    that rule off, the estimator still answers in one line."""
     line = refused(ROOT / "configs" / "plate_shell.yaml",
                    [f"model.material.thickness={thickness}", "time.end=3e-6"], tmp_path)
-    assert line.startswith(message), line
+    assert "thicker than 1e-06 x its smallest element edge" in line, line
+    from solver.model import binding
+    monkeypatch.setattr(binding, "THINNEST_WALL", 0.0)
+    raw = raw_scene("plate_shell")
+    raw["model"]["material"]["thickness"] = float(thickness)
+    raw["time"]["end"] = 3e-6
+    with pytest.raises(SceneError) as err:
+        run_scene(raw, tmp_path)
+    assert f"error: {err.value}".startswith(message), str(err.value)
 
 
 def test_seconds_print_enough_digits_to_differ():
@@ -171,13 +182,14 @@ def test_refusal_step_and_critical_step_read_differently(tmp_path):
     lay = overlap.derive(mdl.graph(), scene.partitions, [1, 1])
     fr, crit, _ = stability.check(scene, scene.partitions[0], mdl, lay[0].held, lay[0].n_owned)
     raw["time"]["dt"] = crit * (1 + 1e-7) / scene.partitions[0].ratio
+    raw["time"]["end"] = 10 * raw["time"]["dt"] * max(p.ratio for p in scene.partitions)
     line = refused(write_scene(tmp_path / "s.yaml", raw), [], tmp_path)
     step, critical = re.search(r"step (\S+) s \(ratio .* critical step (\S+) s", line).groups()
     assert step != critical and float(step) > float(critical), line
     assert float(critical) == pytest.approx(crit, rel=1e-7) and len(critical) <= 11
 
 
-STIFF = ["model.lattice.E=7.0e11", "time.dt=1e-8", "time.end=1e-7"]
+STIFF = ["model.lattice.E=7.0e11", "time.dt=1e-8", "time.end=1.2e-7"]
 
 
 def test_transition_advice_is_the_rule_that_decides(tmp_path):
@@ -193,10 +205,10 @@ def test_transition_advice_is_the_rule_that_decides(tmp_path):
     line = refused(scene, STIFF + ["partitions.fem.ratio=1"], tmp_path)
     assert line.startswith("error: partition 'dem': step 1e-08 s"), line
     small = ["model.lattice.E=7.0e11", "time.dt=2e-9", "partitions.fem.ratio=12"]
-    line = refused(scene, small + ["time.end=2.4e-8"], tmp_path)
+    line = refused(scene, small + ["time.end=1.2e-7"], tmp_path)
     ratio = int(re.search(r"largest stable ratio (\d+) at time.dt 2e-09 s", line).group(1))
     assert ratio == 9, line            # 1.829e-8 s / 2e-9 s
-    refused(scene, small[:2] + [f"partitions.fem.ratio={ratio + 1}", "time.end=2.4e-8"], tmp_path)
+    refused(scene, small[:2] + [f"partitions.fem.ratio={ratio + 1}", "time.end=1.2e-7"], tmp_path)
     out = tmp_path / "ok.h5"
     sets = small[:2] + [f"partitions.fem.ratio={ratio}", f"time.end={2 * ratio * 2e-9}",
                         "reference=none"]
