@@ -105,3 +105,16 @@ def test_plot_refuses_what_it_cannot_read(tmp_path):
         assert proc.returncode == 2, (args, proc.stderr)
         line, = proc.stderr.strip().splitlines()
         assert line.startswith(f"error: {args[0]}: ") and words in line, line
+
+
+def test_sweep_ends_each_ratio_on_a_whole_system_step(tmp_path):
+    """A run ends on a whole system step: the sweep ends each ratio on the last
+    one before time.end and says so (1.0 s at eta = 3: 3333 steps of 3e-4 s)."""
+    proc = subprocess.run([sys.executable, "-m", "solver.tools.sweep", "configs/six_dof.yaml",
+                           "--ratios", "2,3", "--set", "time.end=1.0", "--out", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "η = 3: ends at 0.9999 s (3333 whole system steps of 0.0003 s)" in proc.stdout
+    assert "η = 2: ends" not in proc.stdout
+    rows = list(csv.DictReader(open(tmp_path / "sweep.csv")))
+    assert [int(r["fem_steps"]) for r in rows] == [5000, 3333]

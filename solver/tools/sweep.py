@@ -40,7 +40,8 @@ def mpiexec() -> str:
 
 def run_one(scene_path, n, sets, out_file, petsc_options=()):
     cmd = [sys.executable, "-m", "solver", scene_path, *sum((["--set", s] for s in sets), []),
-           "--set", f"output.file={out_file}", "--set", "output.progress=0", *petsc_options]
+           "--set", f"output.file={out_file}", "--set", "output.progress=0", "--overwrite",
+           *petsc_options]
     if n > 1:
         cmd = [mpiexec(), "-n", str(n), *cmd]
     proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -260,6 +261,24 @@ def main(argv=None) -> int:
         return e.code
 
 
+def whole_steps_end(scene, coarse, x, by_dt) -> list[str]:
+    """``time.end=...`` on the last whole system step at or before the scene's
+    end for this variant (a run ends on a whole system step), or nothing."""
+    dt = x if by_dt else scene.time.dt
+    ratio = max(p.ratio if (by_dt or p.name != coarse) else x for p in scene.partitions)
+    system_dt = dt * ratio
+    steps = int(np.floor(scene.time.end / system_dt * (1 + 1e-12)))
+    end = steps * system_dt
+    if steps < 1:
+        raise RunError(2, f"time.end {scene.time.end:g} s is shorter than one system step "
+                          f"({system_dt:g} s) at {'dt' if by_dt else 'η'} = {x}")
+    if abs(end - scene.time.end) <= 1e-9 * system_dt:
+        return []
+    print(f"sweep: {'dt' if by_dt else 'η'} = {x}: ends at {end:.10g} s ({steps} whole system "
+          f"steps of {system_dt:g} s), not {scene.time.end:g} s", flush=True)
+    return [f"time.end={end!r}"]
+
+
 def sweep(args, scene, ranks, by_dt, points) -> int:
     schemes = (args.schemes or scene.coupling.scheme).split(",")
     treatments = (args.treatments or scene.coupling.external).split(",")
@@ -283,6 +302,7 @@ def sweep(args, scene, ranks, by_dt, points) -> int:
                     sets = [*args.sets, f"coupling.scheme={scheme}",
                             *([f"coupling.external={treat}"] if treat != "-" else []),
                             f"time.dt={x}" if by_dt else f"partitions.{coarse}.ratio={x}"]
+                    sets += whole_steps_end(scene, coarse, x, by_dt)
                     tag = f"{scheme}_{treat}" if treat != "-" else scheme
                     f = out / "runs" / f"n{n}_{tag}_{'dt' if by_dt else 'eta'}{x}.h5"
                     row = run_one(args.scene, n, sets, f)
