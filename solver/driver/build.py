@@ -60,6 +60,10 @@ def build(scene, comm, say=_silent) -> Assembly:
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     if mdl is not None and getattr(mdl, "zone", None) is not None:
         say(f"[solver]   {mdl.zone.describe()}")
+    if mdl is not None and say is not _silent:
+        from solver.model import element_steps
+        for line in element_steps.lines(scene, mdl):
+            say(f"[solver]   {line}")
     scheme = scheme_cls.build(scene, mdl, comm, say)
     parts, layouts, freqs, mdl = scheme.parts, scheme.layouts, scheme.freqs, scheme.model
     lines = []

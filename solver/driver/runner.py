@@ -122,6 +122,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
             fields.close()
         if heating:
             heating.destroy()
+        probes.destroy()
 
     result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
     if fields and rank == 0:
@@ -341,7 +342,8 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
                 last = clock()
                 frac, el = (k - start) / (n_sys - start), last - t_loop
                 say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
-                    f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
+                    f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go; "
+                    f"{guard.latest()}")
     return failure, k, clock() - t_loop, interrupted
 
 
