@@ -106,15 +106,15 @@ def _length(family: str, X: np.ndarray) -> np.ndarray:
 
 
 def _family(Ke) -> str | None:
-    """The cell family of a block set's stiffness, or None for other elements."""
-    inner = getattr(Ke, "Ke", None)                  # shells on solids: padded solid cells
-    if inner is not None:
-        Ke = inner
-    fam = getattr(Ke, "family", None)
-    if fam is not None and hasattr(fam, "name"):
-        return fam.name
-    if type(Ke).__name__ == "ShellStiffness":
+    """The cell family of a block set's stiffness (mesh cells, shells, solid
+    cells padded to 6 DOFs), or None for other elements (bonds, ties)."""
+    kind = type(Ke).__name__
+    if kind == "Padded":                             # shells on solids: the solid cells
+        Ke, kind = Ke.Ke, type(Ke.Ke).__name__
+    if kind == "ShellStiffness":
         return "shell3"
+    if kind == "CellStiffness":
+        return Ke.family.name
     return None
 
 
