@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 SHOWN = 3                # elements listed per partition
+CHUNK = 32768            # cells measured at a time (bounds the temporaries)
 
 
 def speeds(material) -> dict:
@@ -154,31 +155,32 @@ def element_steps(scene, mdl, blocks, keep=None):
         if not len(conn):
             continue
         mask = keep(conn) if keep is not None else np.ones(len(conn), bool)
+        rows = conn[mask]
         fam = _family(Ke)
         if fam is not None and c is not None and points is not None:
-            L = _length(fam, points[conn[mask]])
-            if L is None:
+            if _length(fam, points[rows[:1]]) is None:
                 continue
+            L = np.concatenate([_length(fam, points[rows[s:s + CHUNK]])
+                                for s in range(0, len(rows), CHUNK)] or [np.zeros(0)])
             steps.append(L / (plate if fam == "shell3" else c))
-            kinds.append(np.full(mask.sum(), fam, dtype=object))
-        elif hasattr(Ke, "k") and type(Ke).__name__ == "BondStiffness":
-            steps.append(_spring_steps(conn[mask], np.asarray(Ke.k)[mask], mass))
-            kinds.append(np.full(mask.sum(), "bond", dtype=object))
+            kinds.append(fam)
+        elif type(Ke).__name__ == "BondStiffness":
+            steps.append(_spring_steps(rows, np.asarray(Ke.k)[mask], mass))
+            kinds.append("bond")
         elif isinstance(Ke, np.ndarray) and conn.shape[1] <= 2 and Ke.shape[1:] == (conn.shape[1],) * 2:
-            steps.append(_spring_steps(conn[mask], Ke[mask, 0, 0], mass))
-            kinds.append(np.full(mask.sum(), "spring", dtype=object))
+            steps.append(_spring_steps(rows, Ke[mask, 0, 0], mass))
+            kinds.append("spring")
         else:
             continue                  # carried band bonds, rotation ties: not estimated
-        conns.append(list(conn[mask]))
+        conns.append(rows)
     if not steps:
         return np.zeros(0), None
+    starts = np.cumsum([0] + [len(s) for s in steps])
     steps = np.concatenate(steps)
-    kinds = np.concatenate(kinds)
-    rows = [r for chunk in conns for r in chunk]
 
     def label(i):
-        nodes = rows[i]
-        kind = kinds[i]
+        b = int(np.searchsorted(starts, i, side="right")) - 1
+        nodes, kind = conns[b][i - starts[b]], kinds[b]
         if kind in ("bond", "spring"):
             ends = "-".join(str(int(n)) for n in nodes) if len(nodes) > 1 else f"{int(nodes[0])}-ground"
             return f"{kind} {ends}"
