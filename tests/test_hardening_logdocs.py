@@ -153,6 +153,8 @@ CLAIMS = [
     ("docs/heat.md", r"It happens after (\S+) s of heating, at a bond temperature of (\d+) K",
      "bench_plate"),
     ("docs/heat.md", r"whole 100 mm width (\S+) µs of mechanical time", "bench_plate"),
+    ("docs/heat.md", r"(\d+) bonds have broken by the end of the 8.93 s \((\d+) and (\d+) at 25 "
+                     r"and 100", "bench_plate"),
     ("README.md", r"ours is (\S+), at equal or better accuracy: arrival within (\S+) %, peak "
                   r"within (\S+) %, reflected energy (\S+) of the incident", "bench_transition"),
     ("README.md", r"FE step = DE step against ratio 4: (\S+) s against (\S+) s", "bench_transition"),
