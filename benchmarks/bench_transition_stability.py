@@ -116,6 +116,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     init([])
     lines = ["# Transition scheme: stable FE steps from the spectral radius of a system step", "",
+             "Produced by `python benchmarks/bench_transition_stability.py` (each case: `--only N`).",
              "Short bar (9.6 mm, DEM region 4.8 mm, lattice 0.2 mm), no loads; largest stable FE "
              "step as omega_max * fdt (omega_max: the FE partition's own).  The guard allows "
              "omega_max * fdt < 1.15 (predictor, linear), 0.65 (velocity), 0.2 (hold) and asks for "
@@ -136,7 +137,7 @@ def main(argv=None):
                      f"{om_fe:.4g} | {om_de:.4g} | {r_lo - 1:+.1e} | "
                      f"{'unstable at every step' if lim is None else f'{lim:.3f}'} |")
         print(lines[-1], flush=True)
-    tables.write("bench_transition_stability", lines)
+    tables.write("bench_transition_stability", lines, doc=not (args.quick or args.only))
 
 
 if __name__ == "__main__":

@@ -62,6 +62,10 @@ def build(scene, comm, say=_silent) -> Assembly:
         say(f"[solver]   mesh {note}")
     if mdl is not None and getattr(mdl, "zone", None) is not None:
         say(f"[solver]   {mdl.zone.describe()}")
+    if mdl is not None and say is not _silent:
+        from solver.model import element_steps
+        for line in element_steps.lines(scene, mdl):
+            say(f"[solver]   {line}")
     scheme = scheme_cls.build(scene, mdl, comm, say)
     parts, layouts, freqs, mdl = scheme.parts, scheme.layouts, scheme.freqs, scheme.model
     lines = []

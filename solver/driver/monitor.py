@@ -57,6 +57,13 @@ class Probes:
             for name, value in self.stress.values().items():
                 self._sigma[name][k] = value
 
+    def destroy(self):
+        """Free the stress probes' PETSc objects (their operators live on the
+        partitions' communicators: left to the garbage collector they outlive
+        PetscFinalize, and MPICH reports their datatypes as leaked)."""
+        if self.stress is not None:
+            self.stress.destroy()
+
     def histories(self, t_axis, done: int) -> dict:
         """This rank's probes up to system step ``done``."""
         out = {}
@@ -147,6 +154,15 @@ class EnergyGuard:
         what = "particle" if far[3] == "dem" else "node"
         return (f"{what} {far[1]} of partition '{far[2]}' moved {far[0]:.3g} m, beyond "
                 f"guard.max_displacement {self.max_displacement:.3g} m (lost)")
+
+    def latest(self) -> str:
+        """The last sample, as a progress line shows it (no collective)."""
+        s = self.series
+        kin, strain, work, lost = (s[k][-1] for k in ("kinetic", "strain", "external_work",
+                                                      "dissipated"))
+        return (f"energies at t = {s['t'][-1]:.4g} s: kinetic {kin:.4g} J, strain {strain:.4g} J, "
+                f"work {work:.4g} J, dissipated {lost:.4g} J, balance kinetic + strain + "
+                f"dissipated - work {kin + strain + lost - work:.3g} J")
 
     def memory(self) -> dict:
         """What a checkpoint keeps of the guard."""

@@ -150,6 +150,7 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
             fields.close()
         if heating:
             heating.destroy()
+        probes.destroy()
     stop.where = "while writing the output"
 
     result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
@@ -380,7 +381,8 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
                 last = clock()
                 frac, el = (k - start) / (n_sys - start), last - t_loop
                 say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
-                    f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go")
+                    f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go; "
+                    f"{guard.latest()}")
     return failure, k, clock() - t_loop, interrupted
 
 

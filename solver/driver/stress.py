@@ -161,6 +161,7 @@ class StressProbes:
         for S, _, out_vec, _, _ in self.ops:
             S.destroy()
             out_vec.destroy()
+        self.ops = []
 
 
 def build(scene, mdl, parts):

@@ -4,13 +4,17 @@ Per node the DOFs are (u_x, u_y, u_z, theta_x, theta_y, theta_z) in global
 axes.  In the element's own frame (x along edge 1-2, z the normal) the
 stiffness is the sum of
 
-* **membrane**: the constant-strain triangle (CST) with the plane-stress law
-  E t / (1 - nu^2);
-* **drilling**: a Hughes-Brezzi penalty on the difference between each
-  node's rotation about the normal and the CST's in-plane rotation
-  omega = (dv/dx - du/dy) / 2: gamma t A sum_i (theta_z,i - omega)^2 / 3 with
-  gamma = ``drilling`` x G.  A rigid rotation about the normal costs nothing;
-  in a flat shell the drilling DOFs only take what moments drive them;
+* **membrane with drilling rotations**: Allman's triangle (Allman 1984), with
+  the plane-stress law E t / (1 - nu^2).  Each corner carries (u, v,
+  theta_z); the in-plane displacement is quadratic, an edge midpoint moving
+  by the mean of its corners plus l/8 (theta_i - theta_j) along the edge's
+  normal (:func:`_allman_map`), and the linear strains are integrated exactly
+  at the edge midpoints (:func:`membrane`);
+* **drilling penalty**: Allman's triangle has one spurious zero-energy mode
+  (equal theta_z at the three corners); a Hughes-Brezzi penalty
+  gamma t A (mean theta_z - omega)^2, omega = (dv/dx - du/dy) / 2 the field's
+  rotation at the centroid and gamma = ``drilling`` x G, removes it.  A rigid
+  rotation about the normal costs nothing;
 * **bending**: the discrete Kirchhoff triangle (DKT, Batoz-Bathe-Ho 1980).
   The slopes (dw/dx, dw/dy) are quadratic; at the corners they are the nodal
   rotations (dw/dx = -theta_y, dw/dy = theta_x); at each edge midpoint the

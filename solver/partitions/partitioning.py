@@ -104,14 +104,19 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
         from solver.driver.stop import describe
         error = SceneError(f"partition '{name}': PETSc could not build it "
                            f"({describe(e)}); check the -{name}_ options")
-    agree(comm, error)
-    for part in parts:
-        part.graph = None            # preallocation done: the graph rows are not kept
-    del graph
-    check_large(scene, parts, freqs, comm, say)
-    damping = stability.transition_damping(scene, freqs)
-    refuse(scene, [damping] if damping else [], say, freqs,
-           dropped="the transition scheme runs without the damping it needs")
+    try:
+        agree(comm, error)
+        for part in parts:
+            part.graph = None        # preallocation done: the graph rows are not kept
+        del graph
+        check_large(scene, parts, freqs, comm, say)
+        damping = stability.transition_damping(scene, freqs)
+        refuse(scene, [damping] if damping else [], say, freqs,
+               dropped="the transition scheme runs without the damping it needs")
+    except BaseException:
+        for part in parts:           # refused after building: free the PETSc objects
+            part.destroy()
+        raise
     return Partitions(layouts, assignment, dists, parts, freqs, mdl)
 
 

@@ -1,5 +1,5 @@
 """The ``heat`` section: conduction, a laser spot, thermal expansion and the
-temperature-weakened bonds (seed 003 §3's laser-heated plate).
+temperature-weakened bonds (Zhang et al. 2009, §3's laser-heated plate).
 
 How the slow heating meets the fast waves is a documented time scaling
 (docs/heat.md): one thermal step ``step`` [s of heating] spans ``every``

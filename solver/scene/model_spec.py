@@ -80,7 +80,7 @@ class MetamaterialGenerator:
     resonator_mass: float = key("m_v [kg]", positive=True)
     k_n: float = key("shell-shell spring and right-end ground spring [N/m]", positive=True)
     k_s: float = key("shell-resonator spring [N/m]", positive=True)
-    resonators: bool = key("false: the plain chain of shells (seed 000 Fig. 8)", True)
+    resonators: bool = key("false: the plain chain of shells (Li et al. 2023, Fig. 8)", True)
 
     def build(self):
         return generators.metamaterial(self.M, self.N, self.Q, self.shell_mass,
@@ -231,7 +231,7 @@ class LatticeSpec:
         "contact of particles that share no live bond (linear spring k_n on the overlap of "
         "spheres); needs geometry: nonlinear", None)
     transition: str | None = key(
-        "physical group of the transition band (seed 003): one layer of coarse cells around "
+        "physical group of the transition band (Zhang et al. 2009): one layer of coarse cells around "
         "the region that the lattice overlaps; its particles move with their cell (shape-function "
         "weights), their bond forces and masses go to the cell's nodes, and the region's cells "
         "only give its shape (see docs/transition.md)", None)

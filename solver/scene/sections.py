@@ -79,19 +79,19 @@ class Partition:
 @dataclass(frozen=True)
 class Coupling:
     scheme: Literal["overlap", "staggered", "gc", "conserving", "transition"] = key(
-        "overlap: concurrent scheme of seed 000, partitions advance from the same system-step "
-        "state and exchange once per system step; staggered: seed 002, the explicit partition "
+        "overlap: concurrent scheme of Li et al. (2023), partitions advance from the same system-step "
+        "state and exchange once per system step; staggered: Ma et al. (2018), the explicit partition "
         "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
         "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface; network "
         "models only, 1 rank); conserving: energy-conserving multi-time-step coupling of an "
         "explicit fem or dem partition and an implicit one at any ratio (stable by construction; "
         "no heat, linear bonds; docs/conserving.md, 1 or 2 ranks); "
-        "transition: seed 003, needs model.lattice.transition: the dem partition sub-cycles "
+        "transition: Zhang et al. (2009), needs model.lattice.transition: the dem partition sub-cycles "
         "over the band's motion, then the explicit fem partition steps with the particles' "
         "forces", "overlap")
     external: Literal["taylor", "layers", "literal"] = key(
         "external-data treatment: taylor (one layer following the Taylor predictor from the last "
-        "exchange, default), layers (one layer per sub-step, integrated), literal (seed 000: one "
+        "exchange, default), layers (one layer per sub-step, integrated), literal (Li et al. 2023: one "
         "layer integrated by the partition's own scheme)", "taylor")
     band_motion: Literal["predictor", "linear", "velocity", "hold"] = key(
         "transition scheme: how band particles move between FE steps: predictor (the FE's own "
@@ -251,9 +251,10 @@ class Damping:
 @dataclass(frozen=True)
 class Guard:
     stable_step: bool = key(
-        "refuse unstable steps before stepping: explicit omega_max*dt at or beyond the "
-        "integrator's limit, and a sub-cycled transition scheme without the damping it needs; "
-        "false: warn (naming what is not enforced) and run", True)
+        "refuse, before stepping, explicit steps with omega_max*dt at or beyond the "
+        "integrator's limit and a sub-cycled transition scheme whose damping.beta gives a "
+        "damping ratio below 0.01 at the DEM's omega_max (docs/transition.md); false runs "
+        "anyway with a warning naming both requirements it drops", True)
     energy_bound: float = key(
         "stop when total energy exceeds this factor times (initial energy + largest |external "
         "work| so far)", 10.0, positive=True)
