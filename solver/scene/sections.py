@@ -254,7 +254,7 @@ class Guard:
         "refuse, before stepping, explicit steps with omega_max*dt at or beyond the "
         "integrator's limit and a sub-cycled transition scheme whose damping.beta gives a "
         "damping ratio below 0.01 at the DEM's omega_max (docs/transition.md); false runs "
-        "anyway with a warning naming both requirements it drops", True)
+        "anyway with a warning, dropping both requirements", True)
     energy_bound: float = key(
         "stop when total energy exceeds this factor times (initial energy + largest |external "
         "work| so far)", 10.0, positive=True)
