@@ -11,10 +11,10 @@ from __future__ import annotations
 
 # What each coupling.scheme is, for users (``python -m solver schemes``).
 ABOUT = {
-    "overlap": "seed 000's concurrent scheme: the partitions advance side by side from the same "
+    "overlap": "Li et al.'s (2023) concurrent scheme: the partitions advance side by side from the same "
                "system-step state, overlap by one layer of external nodes and exchange "
                "displacement, velocity and acceleration once per system step",
-    "staggered": "seed 002's explicit-implicit scheme: the explicit partition sub-cycles over "
+    "staggered": "Ma et al.'s (2018) explicit-implicit scheme: the explicit partition sub-cycles over "
                  "the system step, then the implicit partition solves its step with the "
                  "explicit side's accelerations prescribed on the interface",
     "gc": "the Gravouil-Combescure baseline: the interface nodes are duplicated with half "
@@ -23,7 +23,7 @@ ABOUT = {
     "conserving": "energy-conserving multi-time-step coupling (docs/conserving.md): the fine "
                   "side follows the coarse side's straight displacement path on a shared "
                   "interface, and a discrete energy is conserved to round-off",
-    "transition": "seed 003's transition zone (docs/transition.md): the lattice's outer "
+    "transition": "Zhang et al.'s (2009) transition zone (docs/transition.md): the lattice's outer "
                   "particle layers lie in a band of coarse cells and move with them; the dem "
                   "partition sub-cycles over the band's motion, then the fem partition steps "
                   "with the particles' forces",

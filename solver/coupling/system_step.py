@@ -120,7 +120,7 @@ class ConcurrentOverlap:
         self.clocks = _Clocks(parts, [p.name for p in scene.partitions], comm)
 
     def describe(self) -> str:
-        return "concurrent overlap scheme (seed 000): advance all partitions, then exchange"
+        return "concurrent overlap scheme (Li et al. 2023): advance all partitions, then exchange"
 
     def initialise(self, model):
         """Initial state and accelerations; externals taken from their owners."""
@@ -191,7 +191,7 @@ class Staggered(ConcurrentOverlap):
         self.clocks = _Clocks(parts, [p.name for p in scene.partitions], comm)
 
     def describe(self) -> str:
-        return ("staggered scheme (seed 002): explicit sub-cycle, then the implicit solve with "
+        return ("staggered scheme (Ma et al. 2018): explicit sub-cycle, then the implicit solve with "
                 "the explicit side's accelerations prescribed")
 
     def _finish(self, t1):
@@ -263,7 +263,7 @@ class TransitionZone(Staggered):
                                (fe.V[n:], fe.work_array("vt")[n:]))
 
     def describe(self) -> str:
-        return ("transition-zone scheme (seed 003): dem sub-steps over the band's motion, then the "
+        return ("transition-zone scheme (Zhang et al. 2009): dem sub-steps over the band's motion, then the "
                 "explicit FE step with the particles' forces on its band nodes")
 
     def _finish(self, t1):

@@ -429,7 +429,7 @@ def summary(result, output_file) -> list[str]:
                if "exchange_wait_time_per_rank" in a else []),
              f"[solver]   partitions: {parts}"]
     if "vector_rel_error" in a:
-        lines.append(f"[solver]   all probes as one vector (seed 002 eq. 9, mean over samples): "
+        lines.append(f"[solver]   all probes as one vector (Ma et al. 2018 eq. 9, mean over samples): "
                      f"relative error {a['vector_rel_error']:.3e}")
     for name, pr in result.probes.items():
         at = pr["attrs"]
