@@ -141,8 +141,8 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     stop.where = "stepping"
     try:
         failure, done, loop_wall, interrupted = step_loop(
-            scene, scheme, probes, guard, say if rank == 0 else None, comm, fields, start,
-            checkpoint, heating, stop)
+            scene, scheme, probes, guard, say if rank == 0 else None, comm, stop, fields, start,
+            checkpoint, heating)
         if fields:                  # the last frame is the state the run ended in
             fields.write_final(done * Dt)
     finally:
@@ -331,18 +331,17 @@ def model_counts(mdl, comm) -> dict:
     return comm.bcast(counts) if comm.size > 1 else counts
 
 
-def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, checkpoint=None,
-              heating=None, stop=None):
+def step_loop(scene, scheme, probes, guard, say, comm, stop, fields=None, start=0,
+              checkpoint=None, heating=None):
     """Advance system steps from ``start`` to the end, the first guard failure,
     a partition's failure or an interrupt on any rank (all ranks stop at the
-    same step, :mod:`solver.driver.stop`); ``checkpoint(k, wall)`` every
+    same step, :mod:`solver.driver.stop`: ``stop``, the run's Stopper, holds the
+    signals and failures); ``checkpoint(k, wall)`` every
     ``checkpoint.every`` system steps.
 
     Returns (failure message or None, system steps done, stepping wall time,
     interrupted)."""
-    from contextlib import nullcontext
-
-    from solver.driver.stop import Stopper, describe
+    from solver.driver.stop import describe
     n_sys, Dt = scene.n_system_steps, scene.system_dt
     progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
     every = guard.every
@@ -353,36 +352,35 @@ def step_loop(scene, scheme, probes, guard, say, comm, fields=None, start=0, che
     failures = scheme.clocks.failures
     # fault injection for the tests: rank 0 sends itself SIGTERM after this system step
     kill_at = int(os.environ.get("MTS_SIGTERM_AT_STEP", "-1")) if comm.rank == 0 else -1
-    with (nullcontext(stop) if stop is not None else Stopper(comm, start)) as stop:
-        for s in range(start, n_sys):
-            try:
-                if heating is not None:
-                    heating.update(s)
-                scheme.step(s * Dt)
-                if heating is not None:
-                    heating.after_step()
-            except Exception as e:              # noqa: BLE001 -- stop together, keep the output
-                stop.fail(s + 1, describe(e))
-            k = s + 1
-            if k == kill_at:
-                os.kill(os.getpid(), signal.SIGTERM)
-            if failures:
-                stop.fail(k, failures[0])
-            if stop.due(k) or (ck_every and k % ck_every == 0):
-                ended = stop.poll(k)
-                if ended:
-                    k, failure, interrupted = ended
-                    break
-            failure = _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every,
-                                 t_loop)
-            if failure:
+    for s in range(start, n_sys):
+        try:
+            if heating is not None:
+                heating.update(s)
+            scheme.step(s * Dt)
+            if heating is not None:
+                heating.after_step()
+        except Exception as e:              # noqa: BLE001 -- stop together, keep the output
+            stop.fail(s + 1, describe(e))
+        k = s + 1
+        if k == kill_at:
+            os.kill(os.getpid(), signal.SIGTERM)
+        if failures:
+            stop.fail(k, failures[0])
+        if stop.due(k) or (ck_every and k % ck_every == 0):
+            ended = stop.poll(k)
+            if ended:
+                k, failure, interrupted = ended
                 break
-            if progress and (k & 255) == 0 and clock() - last >= progress:
-                last = clock()
-                frac, el = (k - start) / (n_sys - start), last - t_loop
-                say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
-                    f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go; "
-                    f"{guard.latest()}")
+        failure = _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every,
+                             t_loop)
+        if failure:
+            break
+        if progress and (k & 255) == 0 and clock() - last >= progress:
+            last = clock()
+            frac, el = (k - start) / (n_sys - start), last - t_loop
+            say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
+                f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go; "
+                f"{guard.latest()}")
     return failure, k, clock() - t_loop, interrupted
 
 
