@@ -73,15 +73,6 @@ def nearest(word: str, known) -> str:
     return f" (did you mean {match[0]}?)" if match else ""
 
 
-def launch_rank() -> int:
-    """This process's rank as the launcher set it (before MPI starts); 0 alone."""
-    for var in ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK"):
-        value = os.environ.get(var, "")
-        if value.isdigit():
-            return int(value)
-    return 0
-
-
 def check_launch(comm):
     """Refuse a launcher/library mismatch: the launcher started N processes but
     MPI reports a world of one (every rank thinks it is alone)."""
@@ -206,10 +197,8 @@ def main(argv=None) -> int:
         return e.exit_code
     except KeyboardInterrupt as e:
         name = f" ({e.args[0]})" if e.args else ""
-        message = f"interrupted{name} before stepping; no output written"
-        if comm is None and launch_rank() != 0:
-            return 130                  # MPI not started yet: rank 0 of the launch says it
-        return stop_everyone(comm, message, 130)
+        # an interrupt before MPI is up waits for it (stop.mpi_started): comm exists
+        return stop_everyone(comm, f"interrupted{name} before stepping; no output written", 130)
     except Exception as e:                      # noqa: BLE001 -- one line, every rank ends
         if os.environ.get("MTS_TRACEBACK"):
             raise
