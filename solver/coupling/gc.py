@@ -1,4 +1,4 @@
-"""Gravouil-Combescure (GC) multi-time-step baseline, as seed 002 compares against.
+"""Gravouil-Combescure (GC) multi-time-step baseline, as Ma et al. (2018) compare against.
 
 A non-overlapping decomposition derived from the scene's node ownership: an
 *interface node* is a node of the coarse (implicit) partition with a spring to

@@ -1,12 +1,12 @@
 """Coupling schemes: what one system step does.
 
-``ConcurrentOverlap`` (``coupling.scheme: overlap``, seed 000): every
+``ConcurrentOverlap`` (``coupling.scheme: overlap``, Li et al. 2023): every
 partition advances ``largest ratio / ratio`` steps from the same system-step
 state, then one exchange refreshes all external copies.  On as many ranks as
 partitions the advances run concurrently and meet at the exchange; on one rank
 they run one after the other with the same result.
 
-``Staggered`` (``coupling.scheme: staggered``, seed 002): one explicit and one
+``Staggered`` (``coupling.scheme: staggered``, Ma et al. 2018): one explicit and one
 implicit partition.  The implicit side predicts from t_n; the explicit side
 sub-cycles to t_n+1 over its external layers; its boundary (u, v, a) at t_n+1
 is sent to the implicit side, which solves
@@ -217,7 +217,7 @@ class Staggered(ConcurrentOverlap):
 
 
 class TransitionZone(Staggered):
-    """``coupling.scheme: transition`` (seed 003, Fig. 2): the explicit FE
+    """``coupling.scheme: transition`` (Zhang et al. 2009, Fig. 2): the explicit FE
     partition steps fdt = N dt, the dem partition N steps of dt per FE step.
     (The Staggered machinery names the FE side ``implicit``: it solves last.)
 

@@ -97,7 +97,7 @@ def add_reference(result, mdl, scene, comm, say):
 
 
 def vector_error(x, ref) -> float:
-    """Seed 002 eq. 9 with all probes as one vector u(t_i): the mean over the
+    """Ma et al. (2018) eq. 9 with all probes as one vector u(t_i): the mean over the
     samples of ||u(t_i) - u_ref(t_i)|| / ||u_ref(t_i)|| (samples where the
     reference is undefined are skipped: a bar wave's reference ends at the first
     reflection; so are those where it is below VANISHING x its largest norm,

@@ -12,7 +12,7 @@ whatever the rank layout.
 - Particle (dem partitions): the bond (virial, Love-Weber) stress
   sigma = 1/(2 V) sum_j f_ij (x) r_ij over its bonds, with V = m / rho its
   volume (thickness included in plane stress), f_ij = k (n . (u_j - u_i)) n the
-  bond force on i and r_ij = x_j - x_i; a bond carried to band nodes (seed 003
+  bond force on i and r_ij = x_j - x_i; a bond carried to band nodes (Zhang et al. 2009
   transition) counts with its band end interpolated from the cell.  With
   nonlinear lattice bonds the lattice part is evaluated in the current
   configuration at every record (broken bonds drop out, contact forces count).  In a

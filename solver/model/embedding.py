@@ -1,4 +1,4 @@
-"""Particles inside coarse cells: seed 003's transition-zone transfer (eq. 3-5).
+"""Particles inside coarse cells: Zhang et al.'s (2009) transition-zone transfer (eq. 3-5).
 
 A particle of the transition band sits inside one FE cell; ``locate`` finds
 that cell and the particle's local coordinates xi (inverse isoparametric map,

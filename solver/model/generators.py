@@ -5,10 +5,10 @@ Each returns ``Network(mass, spring_i, spring_j, stiffness, groups)`` with
 (for the log and the scene's partitions).  Pure numpy.
 
 chain         n equal masses in a line; either end fixed or free.
-metamaterial  seed 000 §4: shells 0..M+N+Q-1 in a line joined by k_n, the
+metamaterial  Li et al. (2023) §4: shells 0..M+N+Q-1 in a line joined by k_n, the
               right end tied to the ground by k_n; shells M..M+N-1 each carry a
               resonator (nodes M+N+Q.. in order) on a spring k_s.  Without
-              resonators it is the plain chain of seed 000 Fig. 8.
+              resonators it is the plain chain of Li et al. (2023) Fig. 8.
 """
 from __future__ import annotations
 

@@ -61,7 +61,7 @@ class HalfSine(LoadFunction):
 @dataclass(frozen=True)
 class Rectangular(LoadFunction):
     """g(t) = amplitude on [start, start + duration), 0 elsewhere: a sudden load
-    and unload (seed 003's bar)."""
+    and unload (Zhang et al.'s (2009) bar)."""
 
     amplitude: float
     duration: float

@@ -1,4 +1,4 @@
-"""Seed 003's transition zone: a lattice whose outer particle layers sit inside
+"""Zhang et al.'s (2009) transition zone: a lattice whose outer particle layers sit inside
 coarse FE cells (``model.lattice.transition``).
 
 The mesh has three kinds of cells: the FE cells (the body without the two

@@ -108,7 +108,7 @@ class Newmark:
 
 @dataclass(frozen=True)
 class VelocityVerlet:
-    """Velocity Verlet (seed 000 eq. 6 with its typo fixed).
+    """Velocity Verlet (Li et al. 2023, eq. 6 with its typo fixed).
 
     x' = x + h v + h^2/2 a ;  a' = F(x', v + h/2 a)/m ;  v' = v + h/2 (a + a')
 

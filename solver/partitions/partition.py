@@ -12,7 +12,7 @@ External-data treatments (``coupling.external``):
            predictor from the last exchange) during the sub-steps;
   layers   one external layer per sub-step, integrated with the partition's
            scheme (the outer layers degrade but never reach the boundary);
-  literal  one layer integrated with the partition's own scheme (seed 000);
+  literal  one layer integrated with the partition's own scheme (Li et al. 2023);
   prescribed  (set by the staggered scheme for its implicit partition) the
            external (u, v, a) at the new time come from the other partition:
            only owned rows are solved and corrected.

@@ -266,7 +266,7 @@ def _max():
     return MPI.MAX
 
 
-# The transition scheme (seed 003), from the spectral radius of its system-step
+# The transition scheme (Zhang et al. 2009), from the spectral radius of its system-step
 # map (docs/transition.md): sub-cycled, it is weakly unstable without damping
 # at any step, and stable with a damping ratio >= TRANSITION_XI at the DEM's
 # highest frequency up to omega_max * fdt = 1.23-1.62 with the predictor band

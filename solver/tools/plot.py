@@ -10,7 +10,7 @@ continuum probes, energies (with the damping's dissipation), the largest
 temperature (heat); only those the file has data for.  ``-o`` into a missing
 directory creates it.
 With several files it overlays one probe of each, normalised by its largest
-displacement (seed 000 Fig. 8: the metamaterial chain with and without
+displacement (Li et al. 2023, Fig. 8: the metamaterial chain with and without
 resonators).
 """
 from __future__ import annotations

@@ -12,7 +12,7 @@ instead (at the scene's ratios) and the observed convergence order is fitted.
 Each run is a separate process (through the matching mpiexec for n > 1); its
 stepping wall time, errors and the exchange wait of every rank are read back
 from its HDF5 file.  Time ratio and speed-up are against the first point of
-each variant (seed 000 Table 1's columns).  Writes DIR/sweep.csv,
+each variant (Li et al. (2023) Table 1's columns).  Writes DIR/sweep.csv,
 DIR/sweep.md and DIR/sweep.png and prints the Markdown table.
 """
 from __future__ import annotations
