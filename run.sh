@@ -9,12 +9,14 @@
 #   ./run.sh bench [--all]           run the benchmark scripts (--all: the slow ones too)
 #   ./run.sh keys [--markdown]       every scene key with type, default and meaning
 #   ./run.sh schemes                 integrators and coupling schemes, stability limits
+#   ./run.sh install                 only install (then .venv/bin/mts-solver works anywhere)
 #   ./run.sh --help                  this list
 #
 # Every form first installs what is missing (idempotent): Debian's MPICH and
 # OpenBLAS, then a virtual environment with PETSc, petsc4py and mpi4py built
 # against that MPICH (requirements-petsc.txt), plus the pinned wheels of
-# requirements.txt. A petsc4py + mpi4py already importable by python3 is reused.
+# requirements.txt, and the checkout itself (pip install --no-deps -e .).
+# A petsc4py + mpi4py already importable by python3 is reused.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 # the user's working directory is kept: scene paths given here are theirs, and
@@ -25,7 +27,7 @@ PY="$VENV/bin/python"
 log() { echo "[run.sh] $*" >&2; }
 
 case "${1:-}" in
-  -h|--help|help) sed -n '3,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -h|--help|help) sed -n '3,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
 esac
 
 # -n N first: a rank count that is not a whole number >= 1 is refused before anything runs
@@ -105,7 +107,28 @@ mpiexec_for() {
   esac
 }
 
+ensure_package() {
+  # The checkout as an editable install (no dependencies, offline): `mts-solver`
+  # and `import solver` then work from any folder with this venv. The stamp
+  # (checkout path + pyproject.toml) makes a second run free of pip.
+  local stamp="$VENV/.package.sha"
+  local want; want="$( (echo "$here"; cat "$here/pyproject.toml") | sha256sum | cut -d' ' -f1)"
+  if [ -x "$VENV/bin/mts-solver" ] && [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ]; then
+    return
+  fi
+  "$PY" -c 'import setuptools' >/dev/null 2>&1 || "$PY" -m pip install -q "setuptools>=68"
+  log "installing the checkout into $VENV (pip install -e $here)"
+  "$PY" -m pip install -q --no-deps --no-build-isolation --no-index -e "$here" >/dev/null 2>&1 \
+    || { log "pip install --no-deps --no-build-isolation -e $here failed"; exit 1; }
+  echo "$want" > "$stamp"
+}
+
 ensure_python
+# the project's own .venv gets the checkout installed on every form; another
+# environment (MTS_VENV) only on `./run.sh install` (PYTHONPATH serves the rest)
+if [ "${1:-}" = "install" ] || [ "$VENV" = "$here/.venv" ]; then
+  ensure_package
+fi
 # the launcher, found once per environment (asking mpi4py costs a Python start)
 if [ -s "$VENV/.mpiexec" ] && [ -x "$(cat "$VENV/.mpiexec")" ]; then
   MPIEXEC="$(cat "$VENV/.mpiexec")"
@@ -139,7 +162,7 @@ case "${1:-}" in
     exec "$PY" benchmarks/run_all.py "$@"
     ;;
   install)
-    log "environment ready: $PY, $MPIEXEC"
+    log "environment ready: $PY, $MPIEXEC, $VENV/bin/mts-solver"
     ;;
   "")
     exec "$PY" -m solver "$here/configs/six_dof.yaml"

@@ -1,0 +1,177 @@
+"""The installable package: one version string, complete dependencies, and a
+``solver`` that works from any folder.
+
+- ``python -m solver --version`` / ``keys`` and the README's Python API snippet
+  run from a temporary folder outside the checkout.
+- A fresh virtual environment (the test environment's packages through a .pth
+  file) gets the checkout with ``pip install --no-deps --no-build-isolation``
+  (editable, and a plain install of a copy): ``mts-solver --version``, the
+  installed metadata and the snippet then work with no PYTHONPATH.
+- pyproject.toml takes its version from ``solver.__version__`` and declares every
+  third-party module that solver/ imports, with requirements.txt's pins.
+"""
+from __future__ import annotations
+
+import ast
+import os
+import re
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT
+
+import solver
+
+# import name -> distribution name, where they differ
+DISTRIBUTION = {"yaml": "PyYAML"}
+
+
+def readme_snippet() -> str:
+    """The README's first ```python block (its Python API example)."""
+    text = (ROOT / "README.md").read_text()
+    m = re.search(r"```python\n(.*?)```", text, re.S)
+    assert m, "README.md has no ```python block"
+    return m[1]
+
+
+def clean_env(**extra) -> dict:
+    """This process's environment without PYTHONPATH: only what is installed counts."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(MPLBACKEND="Agg", **extra)
+    return env
+
+
+def run(cmd, cwd, env, timeout=300):
+    return subprocess.run(list(map(str, cmd)), capture_output=True, text=True, cwd=cwd, env=env,
+                          timeout=timeout)
+
+
+def check_snippet(python, cwd: Path, env):
+    """Run the README snippet with ``python`` in ``cwd``: it prints the error of
+    six_dof's probe against the exact solution and writes six_dof.h5 there."""
+    script = cwd / "snippet.py"
+    script.write_text(readme_snippet())
+    proc = run([python, script], cwd, env)
+    assert proc.returncode == 0, proc.stderr
+    m = re.fullmatch(r"max error (\S+) m after (\S+) s of stepping\n", proc.stdout)
+    assert m, proc.stdout
+    assert 0 < float(m[1]) < 1e-5 and float(m[2]) > 0            # 2.9e-7 at ratio 10
+    assert (cwd / "six_dof.h5").is_file()
+
+
+def test_python_m_solver_and_the_readme_snippet_work_outside_the_checkout(tmp_path):
+    env = clean_env(PYTHONPATH=str(ROOT))
+    proc = run([sys.executable, "-m", "solver", "--version"], tmp_path, env)
+    assert proc.returncode == 0 and proc.stdout == f"mts-solver {solver.__version__}\n", proc
+    proc = run([sys.executable, "-m", "solver", "keys"], tmp_path, env)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split()[0] == "name" and "\ntime.end " in proc.stdout
+    check_snippet(sys.executable, tmp_path, env)
+
+
+def fresh_venv(path: Path) -> Path:
+    """A venv without pip of its own that sees this environment's packages (.pth)."""
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(path)], check=True,
+                   timeout=120)
+    python = path / "bin" / "python"
+    site = run([python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+               path, clean_env()).stdout.strip()
+    Path(site, "test_env.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    return python
+
+
+def pip_install(python: Path, target, cwd: Path):
+    proc = run([python, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
+                "--no-index", *target], cwd, clean_env())
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("editable", [True, False])
+def test_pip_install_gives_a_console_script_and_an_importable_package(editable, tmp_path):
+    python = fresh_venv(tmp_path / "venv")
+    if editable:
+        pip_install(python, ["-e", ROOT], tmp_path)
+    else:
+        # a copy of what a wheel is built from (a plain install builds in the tree)
+        src = tmp_path / "src"
+        shutil.copytree(ROOT / "solver", src / "solver",
+                        ignore=shutil.ignore_patterns("__pycache__"))
+        for name in ("pyproject.toml", "README.md"):
+            shutil.copy(ROOT / name, src / name)
+        pip_install(python, [src], tmp_path)
+        shutil.rmtree(src)                                     # the install stands alone
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    env = clean_env()
+    proc = run([tmp_path / "venv" / "bin" / "mts-solver", "--version"], outside, env)
+    assert proc.returncode == 0 and proc.stdout == f"mts-solver {solver.__version__}\n", proc
+    proc = run([python, "-c", "import importlib.metadata as m, solver; "
+                "print(m.version('mts-solver')); print(solver.__file__)"], outside, env)
+    assert proc.returncode == 0, proc.stderr
+    version, where = proc.stdout.split()
+    assert version == solver.__version__
+    inside = Path(where).resolve().is_relative_to(ROOT)
+    assert inside == editable, where                           # editable: this checkout
+    proc = run([tmp_path / "venv" / "bin" / "mts-solver", "schemes"], outside, env)
+    assert proc.returncode == 0 and "coupling.scheme" in proc.stdout, proc.stderr
+    check_snippet(python, outside, env)
+
+
+def pyproject() -> dict:
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def test_the_version_has_one_source():
+    project = pyproject()
+    assert "version" not in project["project"] and project["project"]["dynamic"] == ["version"]
+    assert project["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "solver.__version__"}
+    assert re.fullmatch(r"\d+\.\d+\.\d+", solver.__version__)
+
+
+def third_party_imports() -> set[str]:
+    """Top-level modules imported anywhere in solver/ that are not stdlib or solver."""
+    found = set()
+    for path in (ROOT / "solver").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                found.update(a.name.split(".")[0] for a in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                found.add(node.module.split(".")[0])
+    return {m for m in found if m not in sys.stdlib_module_names and m != "solver"}
+
+
+def declared() -> dict[str, str]:
+    """pyproject dependency name (lower case) -> its requirement string."""
+    out = {}
+    for req in pyproject()["project"]["dependencies"]:
+        out[re.match(r"[A-Za-z0-9_.-]+", req)[0].lower()] = req
+    return out
+
+
+def pins() -> dict[str, str]:
+    """name (lower case) -> 'name==version' from requirements*.txt."""
+    out = {}
+    for name in ("requirements.txt", "requirements-petsc.txt"):
+        for line in (ROOT / name).read_text().splitlines():
+            line = line.split("#")[0].strip()
+            if "==" in line:
+                out[line.split("==")[0].lower()] = line
+    return out
+
+
+def test_every_imported_third_party_module_is_a_declared_dependency_with_its_pin():
+    imported = third_party_imports()
+    assert {"numpy", "scipy", "numba", "petsc4py", "mpi4py", "yaml"} <= imported   # the scan works
+    deps, pinned = declared(), pins()
+    missing = sorted(m for m in imported if DISTRIBUTION.get(m, m).lower() not in deps)
+    assert not missing, f"imported by solver/ but not in pyproject dependencies: {missing}"
+    unused = sorted(set(deps) - {DISTRIBUTION.get(m, m).lower() for m in imported})
+    assert not unused, f"pyproject dependencies solver/ never imports: {unused}"
+    for name, req in deps.items():
+        assert req == pinned[name], f"pyproject says {req}, requirements say {pinned[name]}"
