@@ -21,7 +21,7 @@ masses and carried bonds, core particles held), and a ``--big`` block (47:
 --no-arpack-big.  Estimate / truth - 1 is printed for omega (not omega^2).
 Timings are CPU seconds of this one process (time.process_time: the wall time
 on an idle machine, unaffected by a shared machine's load).  Writes
-docs/bench_critical_step.md.
+docs/benchmarks/bench_critical_step.md.
 """
 from __future__ import annotations
 
@@ -215,7 +215,7 @@ def main(argv=None):
                   "figure); the numpy Lanczos runs only up to 20,000 DOF (PREBUILD_LIMIT), the "
                   "PETSc one above, split over the partition's ranks."]
     text = "\n".join(lines) + "\n"
-    (ROOT / "docs" / "bench_critical_step.md").write_text(text)
+    (ROOT / "docs" / "benchmarks" / "bench_critical_step.md").write_text(text)
     print(text)
 
 

@@ -10,7 +10,7 @@ Serial (in this process, reference off so only the coupled run is timed):
     next to Li et al. (2023) Table 1 (171, 150, 140, 134, 130, 125, 112 s).
 Two ranks (mpiexec -n 2, one partition per rank): stepping time per eta and the
 time each rank waits in the exchange per system step (load imbalance).
-Writes results/bench_<scene>.md and the generated block of docs/bench_<scene>.md,
+Writes results/bench_<scene>.md and the generated block of docs/benchmarks/bench_<scene>.md,
 and prints it.
 """
 from __future__ import annotations

@@ -19,7 +19,7 @@ same per system step.  Everything is measured in one run of this script:
   for a cluster from the per-nonzero cost measured here on 1 rank and a
   stated network.
 
-Writes docs/bench_scaling.md.
+Writes docs/benchmarks/bench_scaling.md.
 """
 from __future__ import annotations
 
@@ -118,7 +118,7 @@ def main():
     ap.add_argument("--a", type=float, default=4e-4, help="cube size [m] (4e-4: 1.15 M DOF)")
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--skip-4", action="store_true", help="no oversubscribed 4-rank run")
-    ap.add_argument("--out", default=str(ROOT / "docs" / "bench_scaling.md"))
+    ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks" / "bench_scaling.md"))
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="bench_scaling_"))
     runs = {}

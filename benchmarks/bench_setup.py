@@ -11,7 +11,7 @@ or BAIJ, gmsh's node order or reverse Cuthill-McKee) and times PETSc's bare
 MatMult on each: GB/s moved (matrix values and indices, x read, y written)
 against a STREAM-like triad measured in the same run, and the solver's step
 against the bare MatMult of the matrix it uses (RCM, BAIJ).
-Writes docs/bench_setup.md.
+Writes docs/benchmarks/bench_setup.md.
 """
 from __future__ import annotations
 
@@ -155,7 +155,7 @@ def main():
     ap.add_argument("--ranks", default="1,2")
     ap.add_argument("--h", type=float, default=0.02,
                     help="tetrahedral cube (meshes/cube3d.geo) element size for the RCM table")
-    ap.add_argument("--out", default=str(ROOT / "docs" / "bench_setup.md"))
+    ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks" / "bench_setup.md"))
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="bench_setup_"))
     mesh = tmp / "block.msh"

@@ -14,7 +14,7 @@ n the dimension.  :func:`steps` is the smallest k that brings this below
 ``failure`` for a given ``eps``, and ``theta / (1 - eps)`` is then above
 lambda_max but for that probability.  The bound is the worst case over all
 spectra: on meshes theta is within 1e-5 of lambda_max long before that
-(docs/bench_critical_step.md), so the estimate is about ``eps`` above the
+(docs/benchmarks/bench_critical_step.md), so the estimate is about ``eps`` above the
 true value.  Residual tests (||A y - theta y|| small) are not used: on a mesh
 with a dense top of the spectrum the residual is small while theta still
 sits on a lower eigenvalue (a 70^3 Laplacian: theta 2.4e-5 low at a

@@ -21,7 +21,7 @@ make theta < (1 - LANCZOS_EPS) lambda_max less likely than
 spectrum; about 210-240 steps from 10^3 to 10^6 DOF), theta the largest
 Ritz value, which is never above lambda_max.  So omega_max is about
 LANCZOS_EPS / 2 = 0.1 % above the true value (measured:
-benchmarks/bench_critical_step.py, docs/bench_critical_step.md), against up
+benchmarks/bench_critical_step.py, docs/benchmarks/bench_critical_step.md), against up
 to a third for the Gershgorin bound of A, which caps it (never below the
 true value; it is what an estimate is where Lanczos runs into a NaN).
 
