@@ -140,13 +140,17 @@ def test_the_progress_line_shows_the_guards_latest_energies(tmp_path):
 
 # ------------------------------------------------------------------ docs
 DOCS = ROOT / "docs"
-USER_DOCS = [ROOT / "README.md", *sorted(DOCS.glob("*.md"))]
+BENCH = DOCS / "benchmarks"                     # the generated pages (benchmarks/tables.py)
+# every page a user reads: the README and docs/**, not the developers' docs/dev/
+USER_DOCS = [ROOT / "README.md",
+             *sorted(p for p in DOCS.rglob("*.md") if p.relative_to(DOCS).parts[0] != "dev")]
 
 # (page quoting, pattern over its whitespace-normalised text, page quoted): every
 # figure the pattern captures must be one of the quoted page's generated figures
 # (or its text, for pages without a generated block) to the quoted precision.
+PAPERS = "docs/benchmarks/papers.md"      # the papers' scenes, moved out of the README
 CLAIMS = [
-    ("README.md", r"audit \(kinetic \+ strain \+ released \+ dissipated = work\) closes to (\S+)\.",
+    (PAPERS, r"audit \(kinetic \+ strain \+ released \+ dissipated = work\) closes to (\S+)\.",
      "bench_plate"),
     ("docs/heat.md", r"= work to (\S+) \((\S+) J of work, (\S+) J dissipated, (\S+) J released",
      "bench_plate"),
@@ -155,12 +159,12 @@ CLAIMS = [
     ("docs/heat.md", r"whole 100 mm width (\S+) µs of mechanical time", "bench_plate"),
     ("docs/heat.md", r"(\d+) bonds have broken by the end of the 8.93 s \((\d+) and (\d+) at 25 "
                      r"and 100", "bench_plate"),
-    ("README.md", r"ours is (\S+), at equal or better accuracy: arrival within (\S+) %, peak "
-                  r"within (\S+) %, reflected energy (\S+) of the incident", "bench_transition"),
-    ("README.md", r"FE step = DE step against ratio 4: (\S+) s against (\S+) s", "bench_transition"),
-    ("README.md", r"Like for like .*? time ratio is (\S+) at 5 layers", "bench_transition"),
-    ("README.md", r"explicit-implicit runs take (\d+), (\d+) and (\d+) % of it", "bench_u_tube"),
-    ("README.md", r"pay only from m ≈ 50: (\d+) % on 1 rank, (\d+) % on 2", "bench_u_tube"),
+    (PAPERS, r"ours is (\S+), at equal or better accuracy: arrival within (\S+) %, peak "
+             r"within (\S+) %, reflected energy (\S+) of the incident", "bench_transition"),
+    (PAPERS, r"FE step = DE step against ratio 4: (\S+) s against (\S+) s", "bench_transition"),
+    (PAPERS, r"Like for like .*? time ratio is (\S+) at 5 layers", "bench_transition"),
+    (PAPERS, r"explicit-implicit runs take (\d+), (\d+) and (\d+) % of it", "bench_u_tube"),
+    (PAPERS, r"pay only from m ≈ 50: (\d+) % on 1 rank, (\d+) % on 2", "bench_u_tube"),
 ]
 
 NUMBER = re.compile(r"\d+(?:\.\d+)?(?:e[-+]?\d+)?")
@@ -171,7 +175,7 @@ def normalised(path: Path) -> str:
 
 
 def quoted_figures(page: str) -> list[float]:
-    text = (DOCS / f"{page}.md").read_text()
+    text = (BENCH / f"{page}.md").read_text()
     found = tables.blocks(text)
     return [float(x) for x in NUMBER.findall(" ".join(t for _, t in found) if found else text)]
 
@@ -192,7 +196,7 @@ def test_figures_quoted_from_benchmark_pages_are_in_their_generated_tables(sourc
     values = quoted_figures(page)
     for claim in m.groups():
         assert matches(claim.replace(",", ""), values), \
-            f"{source} quotes {claim} from docs/{page}.md, which does not have it"
+            f"{source} quotes {claim} from docs/benchmarks/{page}.md, which does not have it"
 
 
 def test_matching_a_figure_respects_its_printed_precision():
@@ -202,7 +206,7 @@ def test_matching_a_figure_respects_its_printed_precision():
 
 
 def test_benchmark_pages_carry_one_generated_block_of_an_existing_script():
-    pages = {p.stem: p for p in DOCS.glob("bench_*.md")}
+    pages = {p.stem: p for p in BENCH.glob("bench_*.md")}
     generated = {n: tables.blocks(p.read_text()) for n, p in pages.items()}
     for name in ("bench_plate", "bench_transition", "bench_transition_stability",
                  "bench_wave_bar", "bench_metamaterial"):
@@ -238,7 +242,7 @@ def test_tables_copied_from_a_generated_page_match_it():
     """A table in the README or a docs page with a generated table's header
     (e.g. heat.md's copy of bench_plate's) has only rows of that table."""
     sources = {}
-    for page in DOCS.glob("bench_*.md"):
+    for page in BENCH.glob("bench_*.md"):
         for _, text in tables.blocks(page.read_text()):
             for rows in table_rows(text):
                 sources.setdefault(rows[0], set()).update(rows)
