@@ -60,7 +60,7 @@ petsc_ok() {
 }
 
 python_ok() {
-  petsc_ok "$1" && "$1" -c 'import numpy, h5py, yaml, matplotlib, meshio, pytest' >/dev/null 2>&1
+  petsc_ok "$1" && "$1" -c 'import numpy, scipy, numba, h5py, yaml, matplotlib, meshio, pytest' >/dev/null 2>&1
 }
 
 ensure_python() {
