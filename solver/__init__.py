@@ -2,7 +2,8 @@
 
 Pipeline: scene (YAML) -> model (arrays) -> overlap layouts -> partitions
 (fem, dem; PETSc) -> system steps with one exchange each -> HDF5 output.
-Entry points: ``python -m solver`` (:mod:`solver.tools.cli`) and the Python API
+Entry points: ``python -m solver`` and the ``mts-solver`` console script
+(:mod:`solver.__main__`, :mod:`solver.tools.cli`) and the Python API
 (:mod:`solver.tools.api`): ``solver.load``, ``solver.scene_from_dict``, ``solver.run``.
 """
 
