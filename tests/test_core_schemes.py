@@ -6,9 +6,7 @@ its rules, the guard and the launch ask the class, and the coupling, driver and
 tools read no other module's private attributes."""
 import ast
 import copy
-import dataclasses
 import typing
-from pathlib import Path
 
 import pytest
 

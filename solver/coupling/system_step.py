@@ -20,8 +20,6 @@ from __future__ import annotations
 
 from time import perf_counter as _clock
 
-import numpy as np
-
 from solver.coupling.exchange import Exchange
 from solver.coupling.scheme import Scheme, two_sides
 from solver.petscutil import Stage, init
