@@ -133,8 +133,9 @@ class Conserving(OwnSides):
              "interface, and a discrete energy is conserved to round-off")
     supports = ("network and continuum models without heat and with linear bonds; exactly "
                 "two partitions on a node-matching interface: fem+implicit (average "
-                "acceleration) with the largest ratio and fem+explicit (central difference) "
-                "or dem+verlet; 1 or 2 ranks (one per side)")
+                "acceleration: beta 0.25, gamma 0.5) with the largest ratio and fem+explicit "
+                "(central difference: beta 0, gamma 0.5) or dem+verlet; 1 or 2 ranks (one per "
+                "side)")
     limit = ("stable at any ratio whenever each side is: the fine side's own explicit "
              "limit with the interface nodes at full mass; the coarse side none")
     max_ranks = 2

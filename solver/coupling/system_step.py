@@ -185,7 +185,8 @@ class Staggered(ConcurrentOverlap):
              "explicit side's accelerations prescribed on the interface")
     supports = ("network and continuum models; exactly two partitions: fem+implicit with the "
                 "largest ratio, and fem+explicit or dem+verlet; any number of ranks; external "
-                "(of the explicit side): taylor, layers, literal")
+                "(of the explicit side; the implicit side's are prescribed): taylor, layers, "
+                "literal")
     limit = ("the explicit partition's own limit; the implicit one has none alone, but "
              "coupled beyond about 1.4 x the explicit critical step it can go unstable (a "
              "warning is printed before stepping; the energy guard stops a blow-up)")

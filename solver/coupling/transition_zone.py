@@ -44,8 +44,8 @@ class TransitionZone(Staggered):
              "partition sub-cycles over the band's motion, then the fem partition steps "
              "with the particles' forces")
     supports = ("continuum models with model.lattice.transition: one fem+explicit partition "
-                "with the largest ratio (the FE step) and one dem+verlet partition; any number "
-                "of ranks; external: taylor")
+                "with the largest ratio (the FE step) and one dem+verlet partition whose group "
+                "is model.lattice.region; any number of ranks; external: taylor")
     limit = ("the FE step: omega_max fdt below a bound set by coupling.band_motion ("
              + ", ".join(f"{k} {v:g}" for k, v in TRANSITION_OMEGA_H.items())
              + "); the dem partition's own limit; when the dem partition sub-cycles, a damping "
