@@ -42,8 +42,12 @@ def unregister(name: str) -> None:
 def _load() -> None:
     global _loaded
     if not _loaded:
-        _loaded = True
-        importlib.import_module(PROVIDER)
+        _loaded = True                   # PROVIDER's own import asks the registry too
+        try:
+            importlib.import_module(PROVIDER)
+        except BaseException:
+            _loaded = False
+            raise
 
 
 def declared() -> dict[str, type]:
