@@ -37,7 +37,8 @@ import numpy as np
 
 from solver.collective import agree, on_root
 from solver.coupling.overlap import Layout
-from solver.coupling.system_step import _Clocks
+from solver.coupling.scheme import two_sides
+from solver.coupling.system_step import Clocks
 from solver.coupling.gc import OwnSides
 from solver.errors import LaunchError, SceneError, SolverError
 from solver.partitions import stability
@@ -45,6 +46,7 @@ from solver.partitions.assembly import kept
 from solver.partitions.dem import DemPartition
 from solver.partitions.fem import FemPartition
 from solver.petscutil import init
+from solver.scene.schema import fail
 
 
 class SideModel:
@@ -123,16 +125,58 @@ def held_nodes(scene, k, f, iface):
 
 class Conserving(OwnSides):
     name = "conserving"
+    summary = ("energy-conserving multi-time-step coupling of an explicit fem or dem partition "
+               "and an implicit one at any ratio (stable by construction; no heat, linear bonds; "
+               "docs/conserving.md, 1 or 2 ranks)")
+    about = ("energy-conserving multi-time-step coupling (docs/conserving.md): the fine "
+             "side follows the coarse side's straight displacement path on a shared "
+             "interface, and a discrete energy is conserved to round-off")
+    supports = ("network and continuum models without heat and with linear bonds; exactly "
+                "two partitions on a node-matching interface: fem+implicit (average "
+                "acceleration: beta 0.25, gamma 0.5) with the largest ratio and fem+explicit "
+                "(central difference: beta 0, gamma 0.5) or dem+verlet; 1 or 2 ranks (one per "
+                "side)")
+    limit = ("stable at any ratio whenever each side is: the fine side's own explicit "
+             "limit with the interface nodes at full mass; the coarse side none")
+    max_ranks = 2
 
     @classmethod
-    def build(cls, scene, model, comm, say):
+    def validate(cls, scene):
+        if scene.heat is not None:
+            fail("coupling.scheme", "conserving couples linear partitions without heat; "
+                 "this scene has heat (use overlap or staggered)")
+        lat = getattr(scene.model, "lattice", None)
+        if lat is not None and lat.geometry != "linear":
+            fail("coupling.scheme", f"conserving couples linear partitions; "
+                 f"model.lattice.geometry is {lat.geometry} (use linear, or staggered)")
+        coarse, other = two_sides(scene, cls.name)
+        parts = scene.partitions
+        if (other.method, other.integrator) not in (("fem", "explicit"), ("dem", "verlet")) \
+                or coarse.method != "fem":
+            fail("coupling.scheme", f"conserving: the fine partition '{other.name}' must be "
+                 f"fem+explicit or dem+verlet and the coarse '{coarse.name}' fem+implicit")
+        if (coarse.beta, coarse.gamma) != (0.25, 0.5):
+            fail(f"partitions[{parts.index(coarse)}].beta", f"conserving: the implicit "
+                 f"partition '{coarse.name}' must be average acceleration (beta 0.25, "
+                 f"gamma 0.5), not beta {coarse.beta:g}, gamma {coarse.gamma:g}")
+        if other.method == "fem" and (other.beta, other.gamma) != (0.0, 0.5):
+            fail(f"partitions[{parts.index(other)}].beta", f"conserving: the explicit "
+                 f"partition '{other.name}' must be central difference (beta 0, gamma 0.5), "
+                 f"not beta {other.beta:g}, gamma {other.gamma:g}")
+        super().validate(scene)
+
+    @classmethod
+    def check_launch(cls, scene, size: int):
+        """At most 2 ranks, each side on one."""
+        super().check_launch(scene, size)
         for k, p in enumerate(scene.partitions):
             if p.ranks is not None and p.ranks != 1:
                 raise LaunchError(f"partitions[{k}].ranks: coupling.scheme conserving runs each "
                                   "side on one rank")
-        scheme = cls(scene, model, comm)
-        scheme.layouts = [scheme.layout(k) for k in range(2)]
-        return scheme
+
+    @classmethod
+    def build(cls, scene, model, comm, say):
+        return cls(scene, model, comm)
 
     def __init__(self, scene, mdl, comm):
         """Rank 0 (the whole model) finds the interface; on 2 ranks partition k
@@ -193,7 +237,8 @@ class Conserving(OwnSides):
         if self.C is not None:
             self.G0 = np.zeros(self.n)
         self._set_up(P)
-        self.clocks = _Clocks(self.parts, [p.name for p in specs], comm)
+        self.clocks = Clocks(self.parts, [p.name for p in specs], comm)
+        self.layouts = [self.layout(k) for k in range(2)]
 
     def layout(self, k):
         owned = held_nodes(self._scene, k, self.f, self.iface)[0]

@@ -24,10 +24,12 @@ import dataclasses
 import numpy as np
 
 from solver.partitions import stability
-from solver.coupling.system_step import _Clocks
+from solver.coupling.scheme import Scheme, two_sides
+from solver.coupling.system_step import Clocks
 from solver.partitions.fem import FemPartition
 from solver.coupling.overlap import Layout
 from solver.petscutil import init
+from solver.scene.schema import fail
 
 
 def subdomains(scene, mdl):
@@ -60,33 +62,47 @@ def subdomains(scene, mdl):
             iface, (a, b))
 
 
-class OwnSides:
+class OwnSides(Scheme):
     """What the schemes that lay out their own two sides share (gc,
     conserving): no VecScatter exchange, every partition's external data
     taken literally."""
     exchanges = ()
+    uses_external = False
 
     @staticmethod
     def treatments(scene) -> list[str]:
         return ["literal"] * len(scene.partitions)
 
-    def memory(self) -> dict:
-        """What a checkpoint keeps of the scheme beyond its partitions' states
-        (name -> array, this rank's part): none."""
-        return {}
-
-    def restore_memory(self, memory: dict):
-        """Put :meth:`memory`'s arrays (merged over ranks) back after synchronise()."""
-
 
 class GravouilCombescure(OwnSides):
     name = "gc"
+    summary = ("Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface; "
+               "network models only, 1 rank)")
+    about = ("the Gravouil-Combescure baseline: the interface nodes are duplicated with half "
+             "their mass and Lagrange multipliers keep the copies' velocities equal at every fine "
+             "step (first order for ratios above 1)")
+    supports = ("network models only (springs; not continua, heat or lattices); exactly two "
+                "partitions: fem+implicit with the largest ratio and fem+explicit; 1 rank")
+    limit = ("the fine partition's own explicit limit, its interface copies at half mass (the "
+             "guard checks that); beyond it nothing is proven: on some chains the coupled step "
+             "grows slowly at ratios 2-4 even below that limit (spectral radius up to 1.004, "
+             "docs/conserving.md); the energy guard stops a blow-up")
+    max_ranks = 1
+
+    @classmethod
+    def validate(cls, scene):
+        if scene.model.kind != "network":
+            fail("coupling.scheme", f"gc supports network models only (springs between "
+                 f"masses), not a {scene.model.kind} model: use staggered or conserving")
+        _, fine = two_sides(scene, cls.name)
+        if (fine.method, fine.integrator) != ("fem", "explicit"):
+            fail("coupling.scheme", f"gc: the fine partition '{fine.name}' must be fem with "
+                 "integrator explicit")
+        super().validate(scene)
 
     @classmethod
     def build(cls, scene, model, comm, say):
-        scheme = cls(scene, model, comm)
-        scheme.layouts, scheme.model = [p.layout for p in scheme.parts], model
-        return scheme
+        return cls(scene, model, comm)
 
     def __init__(self, scene, mdl, comm):
         P = init()
@@ -123,8 +139,9 @@ class GravouilCombescure(OwnSides):
         H = ga * self.A.dt * np.diag(1.0 / self.A.mass[self.ia]) - gb * self.B.dt * self.X[self.ib]
         self.H_inv = np.linalg.inv(H)
         self._ga, self._gb = ga * self.A.dt, gb * self.B.dt
-        self.clocks = _Clocks(self.parts)
+        self.clocks = Clocks(self.parts)
         self.iface = iface
+        self.layouts, self.model = [p.layout for p in self.parts], mdl
 
     def describe(self) -> str:
         return (f"GC baseline (Gravouil-Combescure): {self.iface.size} interface node(s) "

@@ -13,19 +13,19 @@ is sent to the implicit side, which solves
 K_eff[BI,BI] a_BI = f_BI - (K u~ + C v~)_BI - K_eff[BI,E] a_E with those
 accelerations prescribed; the implicit results are then copied to the
 explicit side's externals.  The two sides alternate, so on two ranks they do
-not overlap in time.
+not overlap in time.  ``TransitionZone`` (:mod:`solver.coupling.transition_zone`)
+builds on ``Staggered``.
 """
 from __future__ import annotations
 
 from time import perf_counter as _clock
 
-import numpy as np
-
 from solver.coupling.exchange import Exchange
+from solver.coupling.scheme import Scheme, two_sides
 from solver.petscutil import Stage, init
 
 
-class _Clocks:
+class Clocks:
     """Wall time of partitions and exchanges, and PETSc logging stages (one per
     partition, one for the exchange) when PETSc logging is on (-log_view).
 
@@ -96,8 +96,22 @@ class _Clocks:
         self.exchange_wall += _clock() - c1
 
 
-class ConcurrentOverlap:
+class ConcurrentOverlap(Scheme):
     name = "overlap"
+    summary = ("concurrent scheme of Li et al. (2023), partitions advance from the same "
+               "system-step state and exchange once per system step")
+    about = ("Li et al.'s (2023) concurrent scheme: the partitions advance side by side from the "
+             "same system-step state, overlap by one layer of external nodes and exchange "
+             "displacement, velocity and acceleration once per system step")
+    supports = ("network and continuum models; any number of partitions, each fem+explicit, "
+                "fem+implicit or dem+verlet; any number of ranks; external: taylor, layers, "
+                "literal")
+    limit = ("each explicit partition's own limit (omega_max h < 2 on its step); an implicit "
+             "partition has none alone, but coupled beyond about 1.4 x the explicit critical "
+             "step it can go unstable (a warning is printed before stepping; the energy "
+             "guard stops a blow-up)")
+    uses_external = True
+    max_ranks = None
 
     @staticmethod
     def treatments(scene) -> list[str]:
@@ -107,17 +121,22 @@ class ConcurrentOverlap:
     def build(cls, scene, model, comm, say):
         """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme."""
         from solver.partitions.partitioning import build_partitions
-        built = build_partitions(scene, model, comm, cls.treatments(scene), say)
-        scheme = cls(comm, built.dists, built.assignment, built.parts, built.model.dofmap, scene)
-        scheme.layouts, scheme.freqs, scheme.model = built.layouts, built.freqs, built.model
-        return scheme
+        return cls(scene, build_partitions(scene, model, comm, cls.treatments(scene), say), comm)
 
-    def __init__(self, comm, dists, ranks, parts, dofmap, scene):
-        self.parts = parts
-        need = any(d.layout.layers for d in dists)
-        self.exchange = Exchange(comm, dists, ranks, parts, dofmap) if need else None
-        self.exchanges = [self.exchange] if need else []
-        self.clocks = _Clocks(parts, [p.name for p in scene.partitions], comm)
+    def __init__(self, scene, built, comm):
+        """``built``: the partitions stage's :class:`~solver.partitions.partitioning.Partitions`."""
+        self.parts, self.layouts, self.freqs, self.model = (built.parts, built.layouts,
+                                                             built.freqs, built.model)
+        self.exchanges = self._exchanges(scene, built, comm)
+        self.clocks = Clocks(self.parts, [p.name for p in scene.partitions], comm)
+
+    def _exchanges(self, scene, built, comm) -> list:
+        """One exchange refreshing every partition's externals (``exchange``;
+        none without externals)."""
+        need = any(d.layout.layers for d in built.dists)
+        self.exchange = Exchange(comm, built.dists, built.assignment, built.parts,
+                                 built.model.dofmap) if need else None
+        return [self.exchange] if need else []
 
     def describe(self) -> str:
         return "concurrent overlap scheme (Li et al. 2023): advance all partitions, then exchange"
@@ -132,14 +151,6 @@ class ConcurrentOverlap:
         """Externals from their owners, as at the end of a system step."""
         for exchange in self.exchanges:
             exchange()
-
-    def memory(self) -> dict:
-        """What a checkpoint keeps of the scheme beyond its partitions' states
-        (name -> array, this rank's part): none."""
-        return {}
-
-    def restore_memory(self, memory: dict):
-        """Put :meth:`memory`'s arrays (merged over ranks) back after synchronise()."""
 
     def step(self, t0: float):
         """One system step from time ``t0``."""
@@ -167,6 +178,23 @@ class ConcurrentOverlap:
 
 class Staggered(ConcurrentOverlap):
     name = "staggered"
+    summary = ("Ma et al. (2018), the explicit partition sub-cycles, then the implicit partition "
+               "solves with its accelerations prescribed")
+    about = ("Ma et al.'s (2018) explicit-implicit scheme: the explicit partition sub-cycles over "
+             "the system step, then the implicit partition solves its step with the "
+             "explicit side's accelerations prescribed on the interface")
+    supports = ("network and continuum models; exactly two partitions: fem+implicit with the "
+                "largest ratio, and fem+explicit or dem+verlet; any number of ranks; external "
+                "(of the explicit side; the implicit side's are prescribed): taylor, layers, "
+                "literal")
+    limit = ("the explicit partition's own limit; the implicit one has none alone, but "
+             "coupled beyond about 1.4 x the explicit critical step it can go unstable (a "
+             "warning is printed before stepping; the energy guard stops a blow-up)")
+
+    @classmethod
+    def validate(cls, scene):
+        two_sides(scene, cls.name)
+        super().validate(scene)
 
     @staticmethod
     def treatments(scene) -> list[str]:
@@ -178,17 +206,17 @@ class Staggered(ConcurrentOverlap):
         """The partition that solves after the other side's sub-steps."""
         return next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
 
-    def __init__(self, comm, dists, ranks, parts, dofmap, scene):
-        self.parts = parts
+    def _exchanges(self, scene, built, comm) -> list:
+        """One exchange per direction: to the solving side, then back."""
         i = self._solved_last(scene)
-        local = {p.layout.index: p for p in parts}
+        local = {p.layout.index: p for p in built.parts}
         self.implicit = local.get(i)
         self.explicit = local.get(1 - i)
-        self.to_implicit = Exchange(comm, dists, ranks, parts, dofmap, receivers={i})
-        self.to_explicit = Exchange(comm, dists, ranks, parts, dofmap, receivers={1 - i})
-        self.exchanges = [self.to_implicit, self.to_explicit]
+        args = comm, built.dists, built.assignment, built.parts, built.model.dofmap
+        self.to_implicit = Exchange(*args, receivers={i})
+        self.to_explicit = Exchange(*args, receivers={1 - i})
         self.exchange = None
-        self.clocks = _Clocks(parts, [p.name for p in scene.partitions], comm)
+        return [self.to_implicit, self.to_explicit]
 
     def describe(self) -> str:
         return ("staggered scheme (Ma et al. 2018): explicit sub-cycle, then the implicit solve with "
@@ -213,72 +241,4 @@ class Staggered(ConcurrentOverlap):
         if imp:
             self.clocks.part(imp, self._finish, t0 + imp.dt)
         self.clocks.exchange(self.to_explicit)
-        self._received()
-
-
-class TransitionZone(Staggered):
-    """``coupling.scheme: transition`` (Zhang et al. 2009, Fig. 2): the explicit FE
-    partition steps fdt = N dt, the dem partition N steps of dt per FE step.
-    (The Staggered machinery names the FE side ``implicit``: it solves last.)
-
-    Per system step: the FE partition predicts u_n+1 = u_n + fdt v_n + fdt^2/2 a_n
-    (central difference, Newmark beta 0: its displacement is its predictor);
-    the dem partition sub-cycles with the band nodes (its external nodes,
-    which carry the band particles) moving as ``coupling.band_motion`` says;
-    the particles' state at t_n+1 goes to the FE partition, which evaluates
-    the carried bonds (eq. 3) with it and finishes its step; the band nodes'
-    new state goes back.  With ``predictor`` (default) the band moves on the
-    FE's own path, ``linear`` straight from u_n to u_n+1, both ending on the
-    FE's u_n+1; ``velocity`` (u + s v, eq. 4 read literally) and ``hold`` jump
-    there.  At N = 1 this is one central-difference step of the whole model
-    (docs/transition.md, which also gives the stable steps)."""
-
-    name = "transition"
-
-    @staticmethod
-    def treatments(scene) -> list[str]:
-        return ["prescribed" if p.method == "fem" else "taylor" for p in scene.partitions]
-
-    @staticmethod
-    def _solved_last(scene) -> int:
-        return next(k for k, p in enumerate(scene.partitions) if p.method == "fem")
-
-    def __init__(self, comm, dists, ranks, parts, dofmap, scene):
-        super().__init__(comm, dists, ranks, parts, dofmap, scene)
-        motion = scene.coupling.band_motion
-        ext, fe = self.explicit, self.implicit
-        self._band = None
-        self._linear = None
-        if ext is not None and motion == "linear":
-            n = ext.n_own
-            self._linear = (ext.V[n:], ext.A[n:], 0.5 * scene.system_dt)
-        elif ext is not None and motion != "predictor":
-            n = ext.n_own
-            self._band = ext.A[n:] if motion == "velocity" else ext.state[1:, n:]
-        if fe is not None:
-            # the particles' exchanged state at t_n+1 is what the FE forces use
-            # (explicit Newmark evaluates its residual at the predicted u~, v~)
-            n = fe.n_own
-            self._particles = ((fe.U[n:], fe.work_array("ut")[n:]),
-                               (fe.V[n:], fe.work_array("vt")[n:]))
-
-    def describe(self) -> str:
-        return ("transition-zone scheme (Zhang et al. 2009): dem sub-steps over the band's motion, then the "
-                "explicit FE step with the particles' forces on its band nodes")
-
-    def _finish(self, t1):
-        for exchanged, predicted in self._particles:
-            np.copyto(predicted, exchanged)
-        super()._finish(t1)
-
-    def _received(self):
-        if self._band is not None:
-            self._band[...] = 0.0          # velocity: a = 0; hold: v = a = 0 until the next sync
-        elif self._linear is not None:     # linear: v = (u_n+1 - u_n) / fdt = v + fdt/2 a, a = 0
-            v, a, half = self._linear
-            v += half * a
-            a[...] = 0.0
-
-    def synchronise(self):
-        super().synchronise()
         self._received()

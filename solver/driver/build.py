@@ -11,8 +11,7 @@ from solver.model import arrays as model_mod
 from solver.collective import on_root
 from solver.coupling import overlap
 from solver.petscutil import init
-from solver.coupling.schemes import MAX_RANKS, scheme_class
-from solver.errors import LaunchError
+from solver.coupling.schemes import scheme_class
 
 
 def _silent(*_):
@@ -44,10 +43,7 @@ def build(scene, comm, say=_silent) -> Assembly:
     size = comm.size
     n_part = len(scene.partitions)
     scheme_cls = scheme_class(scene.coupling.scheme)
-    most = MAX_RANKS.get(scene.coupling.scheme)
-    if most is not None and size > most:
-        span = "1 rank" if most == 1 else "1 or 2 ranks" if most == 2 else f"1 to {most} ranks"
-        raise LaunchError(f"coupling.scheme {scene.coupling.scheme} runs on {span}, not {size}")
+    scheme_cls.check_launch(scene, size)
     treatments = scheme_cls.treatments(scene)
     R = scene.system_ratio
     n_sys = scene.n_system_steps

@@ -110,9 +110,8 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
             part.graph = None        # preallocation done: the graph rows are not kept
         del graph
         check_large(scene, parts, freqs, comm, say)
-        damping = stability.transition_damping(scene, freqs)
-        refuse(scene, [damping] if damping else [], say, freqs,
-               dropped="the transition scheme runs without the damping it needs")
+        refuse(scene, scene.scheme.built_problems(scene, freqs), say, freqs,
+               dropped=scene.scheme.dropped)
     except BaseException:
         for part in parts:           # refused after building: free the PETSc objects
             part.destroy()
@@ -136,9 +135,10 @@ def refuse(scene, problems, say, freqs=None, sides=None, dropped="running anyway
     """Stop on unstable steps (guard.stable_step) or warn (``dropped``: what
     running anyway gives up); with ``freqs``, warn about coupled implicit steps
     beyond the measured limit.  ``sides``: the critical steps known so far,
-    named in a transition scheme's refusal."""
-    if problems and scene.coupling.scheme == "transition" and sides:
-        problems = [p + "; " + transition_limits(scene, sides) for p in problems]
+    for the scheme's account of them (its refusal_context)."""
+    context = scene.scheme.refusal_context(scene, sides) if problems and sides else None
+    if context:
+        problems = [p + "; " + context for p in problems]
     if problems and scene.guard.stable_step:
         raise StabilityError(problems[0])
     for problem in dict.fromkeys(problems):
@@ -146,26 +146,6 @@ def refuse(scene, problems, say, freqs=None, sides=None, dropped="running anyway
     if freqs is not None:
         for warning in coupled_step_warnings(scene, [{n: c for n, (_, c) in freqs.items()}]):
             say(f"warning: {warning}")
-
-
-def transition_limits(scene, freqs) -> str:
-    """Both sides' critical steps and the largest FE step ratio the guard
-    accepts at time.dt (stability.largest_stable_ratio: the same rules that refuse)."""
-    dt, = stability.seconds(scene.time.dt)
-    out = []
-    ratio, blocker = stability.largest_stable_ratio(scene, freqs)
-    for p in scene.partitions:
-        crit = freqs.get(p.name, (None, None))[1]
-        if crit is None:
-            continue
-        text = f"{p.name} critical step {stability.seconds(crit)[0]} s"
-        if p.method == "fem" and ratio:
-            text += f" (largest stable ratio {ratio} at time.dt {dt} s)"
-        elif p.method == "fem" and ratio == 0:
-            text += f" (no stable ratio at time.dt {dt} s" + (
-                f": partition '{blocker}' is unstable at it)" if blocker else ")")
-        out.append(text)
-    return "transition zone: " + ", ".join(out)
 
 
 def check_large(scene, parts, freqs, comm, say):

@@ -266,7 +266,8 @@ def _max():
     return MPI.MAX
 
 
-# The transition scheme (Zhang et al. 2009), from the spectral radius of its system-step
+# The transition scheme (Zhang et al. 2009; its rule: solver/coupling/transition_zone.py),
+# from the spectral radius of its system-step
 # map (docs/transition.md): sub-cycled, it is weakly unstable without damping
 # at any step, and stable with a damping ratio >= TRANSITION_XI at the DEM's
 # highest frequency up to omega_max * fdt = 1.23-1.62 with the predictor band
@@ -280,8 +281,9 @@ TRANSITION_XI = 0.01
 
 
 def coupled_fe(scene, spec) -> bool:
-    """Whether ``spec`` is the FE side of a transition scheme."""
-    return scene.coupling.scheme == "transition" and spec.method == "fem"
+    """Whether the coupling scheme holds partition ``spec``'s external nodes
+    still in its stability check (the FE side of a transition scheme)."""
+    return scene.scheme.holds_externals(scene, spec)
 
 
 def check(scene, spec, model, held, n_owned=None):
@@ -332,14 +334,11 @@ def verdict(scene, spec, fr: Frequency):
     if scene.damping.active and spec.integrator != "implicit":
         xi = scene.damping.ratio(fr.omega_max)
         limit = 2.0 * (np.sqrt(1.0 + xi * xi) - xi)
-    coupled = coupled_fe(scene, spec)
-    if coupled:
-        limit = min(limit, TRANSITION_OMEGA_H[scene.coupling.band_motion])
+    limit, why = scene.scheme.step_limit(scene, spec, limit)     # the coupling scheme's rule
     crit = fr.critical_step(limit)
     dt = spec.ratio * scene.time.dt
     problem = None
     if fr.omega_max * dt >= limit:
-        why = (f"; the transition scheme keeps omega_max * fdt < {limit:.3g}" if coupled else "")
         step, critical = seconds(dt, crit)
         base, = seconds(scene.time.dt)
         problem = (f"partition '{spec.name}': step {step} s (ratio {spec.ratio} x time.dt "
@@ -347,21 +346,6 @@ def verdict(scene, spec, fr: Frequency):
                    f"(omega_max {fr.omega_max:.4g} rad/s, {fr.method}{why}); reduce time.dt or "
                    "the ratio")
     return crit, problem
-
-
-def transition_damping(scene, freqs):
-    """The problem with a sub-cycled transition scheme whose stiffness-proportional
-    damping gives less than TRANSITION_XI at the dem partition's omega_max, or None."""
-    if scene.coupling.scheme != "transition" or scene.system_ratio == 1:
-        return None
-    need, fr = damping_need(scene, freqs)
-    if scene.damping.beta >= need * (1 - 1e-12):
-        return None
-    return (f"damping.beta: {scene.damping.beta:g} s: the transition scheme sub-cycles (FE step "
-            f"{scene.system_ratio} x the DE step) and needs damping.beta >= {need:.3g} s, a "
-            f"damping ratio >= {TRANSITION_XI:g} at the DEM's highest frequency "
-            f"{fr.omega_max:.4g} rad/s; without it the sub-cycled coupling is weakly unstable "
-            "(docs/transition.md)")
 
 
 def damping_need(scene, freqs):
@@ -379,7 +363,7 @@ def largest_stable_ratio(scene, freqs) -> tuple[int | None, str | None]:
     guard accepts, the partition that no FE ratio makes stable or None), by the
     rules that decide: the FE side's :func:`verdict` at that ratio, the other
     partitions' verdicts, and above ratio 1 the damping that sub-cycling needs
-    (:func:`transition_damping`).  Ratio 0: none; None: not known yet (a
+    (:func:`damping_need`).  Ratio 0: none; None: not known yet (a
     frequency still to be computed)."""
     from dataclasses import replace
     fem = next(p for p in scene.partitions if p.method == "fem")

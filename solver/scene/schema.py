@@ -24,7 +24,8 @@ MISSING = dataclasses.MISSING
 def key(doc: str, default: Any = MISSING, *, positive: bool = False,
         nonnegative: bool = False, parse=None, choices_doc: str | None = None, variants=()):
     """A documented scene key; ``parse(value, path)`` overrides type conversion;
-    ``variants`` lists the sections a ``parse`` hook dispatches to (for docs)."""
+    ``variants`` lists the sections a ``parse`` hook dispatches to (for docs).
+    ``doc`` and ``choices_doc`` may be functions returning the text."""
     meta = {"doc": doc, "positive": positive, "nonnegative": nonnegative, "parse": parse,
             "variants": variants}
     if choices_doc:
@@ -255,6 +256,12 @@ def type_name(tp) -> str:
     return getattr(tp, "__name__", str(tp))
 
 
+def _text(doc):
+    """A key's documentation: a string, or a function giving it (texts generated
+    from a registry, e.g. the coupling schemes)."""
+    return doc() if callable(doc) else doc
+
+
 def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
     """Rows (key path, type, default, doc) for ``cls`` and its nested sections."""
     rows = []
@@ -262,7 +269,7 @@ def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
     for f in dataclasses.fields(cls):
         name = f"{prefix}{f.name}"
         tp = hints[f.name]
-        tdoc = f.metadata.get("type_doc") or type_name(tp)
+        tdoc = _text(f.metadata.get("type_doc")) or type_name(tp)
         if f.default is not MISSING:
             default = ("(section defaults)" if dataclasses.is_dataclass(f.default) else
                        repr(f.default) if f.default is not None else "none")
@@ -272,7 +279,7 @@ def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
                 "(section defaults)" if dataclasses.is_dataclass(d) else repr(d))
         else:
             default = "required"
-        rows.append((name, tdoc, default, f.metadata.get("doc", "")))
+        rows.append((name, tdoc, default, _text(f.metadata.get("doc", ""))))
         for variant in f.metadata.get("variants", ()):
             tag = "name" if "name" in _hints(variant) else "kind"
             label = typing.get_args(_hints(variant)[tag])[0]

@@ -15,6 +15,7 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
+from solver.scene import registry
 from solver.scene.schema import fail, key, shown
 from solver.scene.heat_spec import HeatSpec
 from solver.scene.model_spec import ContinuumModel, NetworkModel, _model, _node_set
@@ -76,19 +77,23 @@ class Partition:
                  f"is not supported (supported: {ok})")
 
 
+def scheme_name(value, path):
+    """``coupling.scheme``: a registered scheme's name (:mod:`solver.scene.registry`)."""
+    names = registry.names()
+    if value not in names:
+        fail(path, f"{shown(value)} is not one of {', '.join(map(str, names))}")
+    return value
+
+
+def scheme_summaries() -> str:
+    """The ``coupling.scheme`` key's documentation: every scheme's summary."""
+    return "; ".join(f"{name}: {cls.summary}" for name, cls in registry.declared().items())
+
+
 @dataclass(frozen=True)
 class Coupling:
-    scheme: Literal["overlap", "staggered", "gc", "conserving", "transition"] = key(
-        "overlap: concurrent scheme of Li et al. (2023), partitions advance from the same system-step "
-        "state and exchange once per system step; staggered: Ma et al. (2018), the explicit partition "
-        "sub-cycles, then the implicit partition solves with its accelerations prescribed; gc: "
-        "Gravouil-Combescure baseline (Lagrange multipliers on a duplicated interface; network "
-        "models only, 1 rank); conserving: energy-conserving multi-time-step coupling of an "
-        "explicit fem or dem partition and an implicit one at any ratio (stable by construction; "
-        "no heat, linear bonds; docs/conserving.md, 1 or 2 ranks); "
-        "transition: Zhang et al. (2009), needs model.lattice.transition: the dem partition sub-cycles "
-        "over the band's motion, then the explicit fem partition steps with the particles' "
-        "forces", "overlap")
+    scheme: str = key(scheme_summaries, "overlap", parse=scheme_name,
+                      choices_doc=lambda: " | ".join(registry.names()))
     external: Literal["taylor", "layers", "literal"] = key(
         "external-data treatment: taylor (one layer following the Taylor predictor from the last "
         "exchange, default), layers (one layer per sub-step, integrated), literal (Li et al. 2023: one "
@@ -298,39 +303,11 @@ class Scene:
     def system_dt(self) -> float:
         return self.time.dt * self.system_ratio
 
-    def _check_transition(self, banded):
-        """A transition band couples one lattice to the FE cells through the
-        overlap exchange: the dem partitions hold the core particles (group =
-        the lattice region), externals follow the Taylor predictor."""
-        if not banded:
-            fail("coupling.scheme", "transition: needs a continuum model with "
-                 "model.lattice.transition (the band of coarse cells)")
-        lat = self.model.lattice
-        if self.coupling.scheme != "transition":
-            fail("coupling.scheme", f"{self.coupling.scheme}: a transition band "
-                 "(model.lattice.transition) couples with scheme transition")
-        if self.coupling.external != "taylor":
-            fail("coupling.external", f"{self.coupling.external}: a transition band's particles "
-                 "follow their cells with the taylor treatment")
-        methods = sorted(p.method for p in self.partitions)
-        if methods != ["dem", "fem"]:
-            fail("partitions", f"the transition scheme couples one fem and one dem partition "
-                 f"(given: {', '.join(methods)})")
-        i, fem = next((i, p) for i, p in enumerate(self.partitions) if p.method == "fem")
-        if fem.integrator != "explicit" or fem.ratio != self.system_ratio:
-            fail("partitions", f"transition scheme: fem partition '{fem.name}' must be explicit "
-                 f"with the largest ratio ({self.system_ratio}); its step is the FE step fdt")
-        if fem.beta != 0:
-            fail(f"partitions[{i}].beta", f"{fem.beta:g}: the transition scheme's FE step is "
-                 "central difference (beta: 0), so the band path the particles follow ends on "
-                 "the FE's next displacement")
-        for p, part in enumerate(self.partitions):
-            if part.method == "dem" and part.group != lat.region:
-                fail(f"partitions[{p}].group", f"{shown(part.group)}: with a transition band a dem "
-                     f"partition holds the particles of model.lattice.region ({shown(lat.region)})")
-            if part.method == "fem" and part.group == lat.region:
-                fail(f"partitions[{p}].group", f"{shown(part.group)} is the lattice region: its cells "
-                     "only give the DEM region's shape")
+    @property
+    def scheme(self):
+        """The class of ``coupling.scheme`` (:class:`solver.coupling.scheme.Scheme`):
+        its facts and rules."""
+        return registry.lookup(self.coupling.scheme)
 
     @property
     def n_system_steps(self) -> int:
@@ -358,15 +335,7 @@ class Scene:
             if part.name in names:
                 fail(f"partitions[{p}].name", f"duplicate partition name {shown(part.name)}")
             names.add(part.name)
-        self._check_scheme_model()
-        if self.coupling.scheme in ("staggered", "gc", "conserving"):
-            self._check_staggered()
-        if self.coupling.band_motion != "predictor" and self.coupling.scheme != "transition":
-            fail("coupling.band_motion", f"{self.coupling.band_motion}: only the transition "
-                 "scheme moves a band")
-        banded = continuum and self.model.lattice is not None and bool(self.model.lattice.transition)
-        if banded or self.coupling.scheme == "transition":
-            self._check_transition(banded)
+        self.scheme.validate(self)           # the coupling scheme's own rules
         big = self.system_ratio
         for p, part in enumerate(self.partitions):
             if big % part.ratio:
@@ -437,48 +406,3 @@ class Scene:
         lat = self.model.lattice
         if self.heat.melting is not None and (lat is None or lat.break_strain is None):
             fail("heat.melting", "weakens breakable bonds: needs model.lattice.break_strain")
-
-    def _check_scheme_model(self):
-        """What a scheme cannot step, whatever its partitions (SUPPORT in
-        solver/coupling/schemes.py): refused here, before any mesh is read."""
-        scheme = self.coupling.scheme
-        if scheme == "gc" and self.model.kind != "network":
-            fail("coupling.scheme", f"gc supports network models only (springs between "
-                 f"masses), not a {self.model.kind} model: use staggered or conserving")
-        if scheme == "conserving":
-            if self.heat is not None:
-                fail("coupling.scheme", "conserving couples linear partitions without heat; "
-                     "this scene has heat (use overlap or staggered)")
-            lat = getattr(self.model, "lattice", None)
-            if lat is not None and lat.geometry != "linear":
-                fail("coupling.scheme", f"conserving couples linear partitions; "
-                     f"model.lattice.geometry is {lat.geometry} (use linear, or staggered)")
-
-    def _check_staggered(self):
-        parts, scheme = self.partitions, self.coupling.scheme
-        implicit = [p for p in parts if p.integrator == "implicit"]
-        if len(parts) != 2 or len(implicit) != 1:
-            fail("coupling.scheme", f"{scheme} couples exactly two partitions, one with "
-                 f"integrator implicit ({len(parts)} partitions, {len(implicit)} implicit given)")
-        if implicit[0].ratio != self.system_ratio:
-            fail("coupling.scheme", f"{scheme}: the implicit partition '{implicit[0].name}' takes "
-                 "the large step, so its ratio must be the largest")
-        other = next(p for p in parts if p.integrator != "implicit")
-        if scheme == "gc" and (other.method, other.integrator) != ("fem", "explicit"):
-            fail("coupling.scheme", f"gc: the fine partition '{other.name}' must be fem with "
-                 "integrator explicit")
-        if scheme == "conserving":
-            coarse = implicit[0]
-            if (other.method, other.integrator) not in (("fem", "explicit"), ("dem", "verlet")) \
-                    or coarse.method != "fem":
-                fail("coupling.scheme", f"conserving: the fine partition '{other.name}' must be "
-                     f"fem+explicit or dem+verlet and the coarse '{coarse.name}' fem+implicit")
-            if (coarse.beta, coarse.gamma) != (0.25, 0.5):
-                fail(f"partitions[{parts.index(coarse)}].beta", f"conserving: the implicit "
-                     f"partition '{coarse.name}' must be average acceleration (beta 0.25, "
-                     f"gamma 0.5), not beta {coarse.beta:g}, gamma {coarse.gamma:g}")
-            if other.method == "fem" and (other.beta, other.gamma) != (0.0, 0.5):
-                fail(f"partitions[{parts.index(other)}].beta", f"conserving: the explicit "
-                     f"partition '{other.name}' must be central difference (beta 0, gamma 0.5), "
-                     f"not beta {other.beta:g}, gamma {other.gamma:g}")
-

@@ -95,13 +95,25 @@ def keys_markdown() -> str:
     return "\n".join(lines)
 
 
+def schemes_markdown() -> str:
+    """The coupling schemes' table (docs/scene.md), from the scheme registry."""
+    from solver.scene import registry
+    lines = ["| `coupling.scheme` | what it is | supports | stability |", "|---|---|---|---|"]
+    for name, cls in registry.declared().items():
+        cells = [c.replace("|", "\\|") for c in (cls.about, cls.supports, cls.limit)]
+        lines.append(f"| `{name}` | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
 def update_docs(path: str):
-    """Replace the generated key table between the markers of ``path``."""
+    """Replace the generated tables (keys, and coupling schemes where the file
+    has their markers) between the markers of ``path``."""
     import re
     text = open(path).read()
-    new = re.sub(r"(<!-- keys:.*?-->\n).*?(<!-- /keys -->)",
-                 lambda m: f"{m.group(1)}{keys_markdown()}\n{m.group(2)}", text, flags=re.S)
-    open(path, "w").write(new)
+    for tag, table in (("keys", keys_markdown), ("schemes", schemes_markdown)):
+        text = re.sub(rf"(<!-- {tag}:.*?-->\n).*?(<!-- /{tag} -->)",
+                      lambda m: f"{m.group(1)}{table()}\n{m.group(2)}", text, flags=re.S)
+    open(path, "w").write(text)
 
 
 def print_keys(markdown=False):
@@ -117,19 +129,16 @@ def print_keys(markdown=False):
 def print_schemes():
     """Integrators and coupling schemes for users: what each is, what it
     supports, its stability limit (the registry's texts, no code notes)."""
-    from solver.coupling.schemes import ABOUT, LIMIT, SUPPORT
     from solver.partitions import integrators
-    from solver.partitions.stability import TRANSITION_OMEGA_H
-    from solver.scene import Coupling
+    from solver.scene import Coupling, registry
     from solver.scene.schema import describe
     print("Integrators (partitions[].integrator):")
     for cls in integrators.CATALOGUE:
         print(f"  {cls.about}\n")
-    bands = ", ".join(f"{k} {v:g}" for k, v in TRANSITION_OMEGA_H.items())
     print("Coupling schemes (coupling.scheme):")
-    for name in SUPPORT:
-        print(f"  {name}: {ABOUT[name]}.\n    supports: {SUPPORT[name]}.\n    stability: "
-              f"{LIMIT[name].format(band_limits=bands)}.\n")
+    for name, cls in registry.declared().items():
+        print(f"  {name}: {cls.about}.\n    supports: {cls.supports}.\n    stability: "
+              f"{cls.limit}.\n")
     print("Other coupling keys:")
     for name, tp, default, doc in describe(Coupling):
         if name != "scheme":
