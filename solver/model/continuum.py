@@ -40,8 +40,8 @@ class ContinuumArrays:
     v0: np.ndarray
     material_D: np.ndarray = None  # elasticity matrix (Voigt), for stresses
     notes: tuple = ()              # what reading the mesh changed (solver.model.mesh), logged
-    shells: Shells = None          # shell surfaces (rotary inertia), or None
-    lattice: Lattice = None        # lattice bonds, overlap cells, carried bonds and bond law, or None
+    shells: Shells | None = None   # shell surfaces (rotary inertia), or None
+    lattice: Lattice | None = None  # lattice bonds, overlap and carried cells, bond law, or None
     contact: tuple = None          # settings of model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
     zone: object = None            # the Transition (model.lattice.transition), else None
