@@ -83,9 +83,9 @@ def interface(scene, mdl):
     if not iface.size:
         raise SceneError(f"coupling.scheme: conserving: partitions '{parts[f].name}' and "
                          f"'{parts[c].name}' share no element (no interface)")
-    if getattr(mdl, "heat", None) is not None:
+    if mdl.heat is not None:
         raise SceneError("heat: coupling.scheme conserving couples linear partitions without heat")
-    if getattr(mdl, "bond_geometry", "linear") != "linear":
+    if mdl.lattice is not None and mdl.lattice.geometry != "linear":
         raise SceneError("model.lattice: coupling.scheme conserving needs linear partitions")
     return f, c, iface
 

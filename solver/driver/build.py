@@ -54,9 +54,9 @@ def build(scene, comm, say=_silent) -> Assembly:
                   share=False)
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
-    for note in getattr(mdl, "notes", None) or ():
+    for note in mdl.notes if mdl is not None else ():
         say(f"[solver]   mesh {note}")
-    if mdl is not None and getattr(mdl, "zone", None) is not None:
+    if mdl is not None and mdl.zone is not None:
         say(f"[solver]   {mdl.zone.describe()}")
     if mdl is not None and say is not _silent:
         from solver.model import element_steps

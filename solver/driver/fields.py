@@ -61,7 +61,7 @@ class FieldWriter:
         self.heating = heating
         self.every = scene.output.fields.every
         self.dim = mdl.dof
-        self.shell = getattr(mdl, "inertia", None) is not None      # 6 DOFs: u and rotations
+        self.shell = mdl.shells is not None      # 6 DOFs: u and rotations
         self.n = mdl.n_nodes
         self.writers = []
         self.n_open = 0
@@ -79,7 +79,7 @@ class FieldWriter:
         # the FE cells, and a transition band's cells (their stress is that of
         # the displacement they interpolate for their particles)
         blocks = [(fam, conn) for fam, conn, _ in mdl.cells]
-        if getattr(mdl, "zone", None) is not None:
+        if mdl.zone is not None:
             blocks += [(FAMILIES[name], conn) for name, conn in mdl.zone.band_cells.items()]
         self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn in blocks
                       if fam.name in MESHIO_CELLS]

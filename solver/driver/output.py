@@ -129,11 +129,11 @@ def write(path: str, result, checkpoint=None) -> None:
             g = f.create_group("energy")
             for k, v in result.energy.items():
                 dataset(g, k, v)
-            if getattr(result, "heat", None) is not None:
+            if result.heat is not None:
                 g = f.create_group("heat")
                 for k, v in result.heat.items():
                     dataset(g, k, v)
-            if getattr(result, "broken", None) is not None:
+            if result.broken is not None:
                 dim = result.broken.shape[1] - 6 if result.broken.size else 0
                 d = dataset(f, "broken_bonds", result.broken)
                 where = ", ".join("xyz"[:dim]) if dim else "midpoint"

@@ -81,7 +81,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
 
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
     from solver.driver import stress
-    probes = Probes(scene.probes, parts, owner, n_sys, getattr(mdl, "points", None),
+    probes = Probes(scene.probes, parts, owner, n_sys, mdl.points,
                     stress.build(scene, mdl, parts))
     for probe in scene.probes:
         if probe.at is not None:
@@ -90,7 +90,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
             say(f"[solver]   probe {probe.name}: at {list(probe.at)} -> node {probe.node} at "
                 f"{[float(f'{c:.6g}') for c in xyz]} ({gap:.3g} m away)")
     heating = None
-    if getattr(mdl, "heat", None) is not None:
+    if mdl.heat is not None:
         from solver.driver.heating import Heating
         heating = Heating(mdl.heat, parts, scene)
         say(f"[solver]   {heating.describe()}")
@@ -314,7 +314,7 @@ def broken_bonds(parts, comm):
 def body_size(mdl, comm) -> float | None:
     """The largest extent of a continuum's nodes (the lost-particle bound), or None."""
     size = None
-    if comm.rank == 0 and hasattr(mdl, "points"):
+    if comm.rank == 0 and mdl.points is not None:
         size = float(np.ptp(mdl.points, axis=0).max())
     return comm.bcast(size) if comm.size > 1 else size
 
@@ -322,7 +322,7 @@ def body_size(mdl, comm) -> float | None:
 def model_counts(mdl, comm) -> dict:
     """FE cells and DEM particles of a continuum model (rank 0 holds it whole)."""
     counts = {}
-    if comm.rank == 0 and hasattr(mdl, "cells"):
+    if comm.rank == 0 and mdl.kind == "continuum":
         counts["fe_cells"] = sum(len(conn) for _, conn, _ in mdl.cells)
         zone = mdl.zone
         if zone is not None:

@@ -62,8 +62,8 @@ def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True, thermal=N
     dim = mdl.dof
     V = mdl.mass[node] / rho
     nodes, coefs = [], []
-    if mdl.bonds and lattice:
-        bi, bj, k = mdl.bonds
+    if mdl.lattice.bonds and lattice:
+        bi, bj, k = mdl.lattice.bonds
         for mine, other in ((bi, bj), (bj, bi)):
             sel = np.flatnonzero(mine == node)
             for b in sel:
@@ -74,7 +74,7 @@ def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True, thermal=N
                 nodes += [other[b], node]
                 coefs += [w * n, -w * n]
                 thermal.append((np.array([other[b], node]), np.full(2, 0.5 * w * L)))
-    for _, conn, blocks in mdl.carried:
+    for _, conn, blocks in mdl.lattice.carried:
         sel = np.flatnonzero(conn[:, -1] == node)             # band-core bonds end on the core
         for b in sel:
             g = blocks.g[b].reshape(-1, dim)                  # elongation = sum_a g_a . u_a
@@ -166,7 +166,7 @@ class StressProbes:
 
 def build(scene, mdl, parts):
     """StressProbes when the model is a continuum with probes, else None."""
-    if not scene.probes or not hasattr(mdl, "cells") or getattr(mdl, "inertia", None) is not None:
+    if not scene.probes or mdl.kind != "continuum" or mdl.shells is not None:
         return None                   # (shells: no stress probes)
     init()
     return StressProbes(scene, mdl, parts)

@@ -10,11 +10,13 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 
 from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
+from solver.model.interface import Lattice, Shells
 from solver.model.loads import LoadFunction, load_function
 from solver.scene import Scene
 
@@ -35,6 +37,8 @@ class Model:
     mass: [n_nodes]; spring_i, spring_j: [n_springs] node ids (GROUND = -1);
     spring_k: [n_springs]; u0, v0: [n_dofs].  ``dof`` DOFs per node, or
     ``dof_counts`` [n_nodes] when nodes differ (see :mod:`solver.model.dofmap`).
+    A network has no geometry and none of the optional features
+    (:mod:`solver.model.interface`): they are class attributes, None.
     """
 
     dof: int
@@ -46,6 +50,15 @@ class Model:
     u0: np.ndarray
     v0: np.ndarray
     dof_counts: np.ndarray | None = None
+
+    kind: ClassVar[str] = "network"
+    points: ClassVar[None] = None           # nodes are masses, not places
+    notes: ClassVar[tuple] = ()
+    shells: ClassVar[Shells | None] = None
+    lattice: ClassVar[Lattice | None] = None
+    contact: ClassVar[tuple | None] = None
+    heat: ClassVar[object] = None
+    zone: ClassVar[object] = None
 
     @property
     def n_nodes(self) -> int:
@@ -143,10 +156,9 @@ def dof_masses(model, held) -> np.ndarray:
     """The lumped mass of every DOF of nodes ``held``: the node's mass, or for
     the rotations of shell nodes (6 DOFs) its rotary inertia."""
     m = np.repeat(model.mass[held], model.dofmap.counts[held])
-    inertia = getattr(model, "inertia", None)
-    if inertia is not None:
+    if model.shells is not None:
         m = m.reshape(-1, 6)
-        m[:, 3:] = inertia[held][:, None]
+        m[:, 3:] = model.shells.inertia[held][:, None]
         m = m.ravel()
     return m
 

@@ -241,7 +241,7 @@ def snap(spec, mesh, at, key, zone=None) -> int:
         fail(key, f"{list(at)}: a point of the {dim}D mesh needs {dim} coordinates")
     body = list(mesh.group(spec.body, "model.body").cells.values() if zone is None else
                 zone.fe_cells.values())
-    body += [mesh.group(p.group).cells["tri3"] for p in getattr(spec, "shells", ())]
+    body += [mesh.group(p.group).cells["tri3"] for p in spec.shells]
     nodes = np.unique(np.concatenate([c.ravel() for c in body])) if body else np.zeros(0, int)
     p = np.asarray(at[:dim], dtype=float)
     if zone is not None:

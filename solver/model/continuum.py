@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 
@@ -21,10 +22,14 @@ from solver.model.loads import load_function
 from solver.model.arrays import PointLoad
 from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
+from solver.model.interface import Lattice, Shells
 
 
 @dataclass(frozen=True)
 class ContinuumArrays:
+    """A continuum model (:class:`solver.model.interface.ModelInterface`), built
+    with keywords; the optional features are None when absent."""
+
     dof: int
     points: np.ndarray
     mass: np.ndarray             # [n_nodes] lumped
@@ -33,17 +38,15 @@ class ContinuumArrays:
     loads: tuple
     u0: np.ndarray
     v0: np.ndarray
-    bonds: tuple = ()            # (i, j, k) lattice bonds on mesh nodes, for dem partitions
-    overlap_cells: list = ()     # (family, conn, Ke) of mesh cells both sides share
-    carried: list = ()           # ("bond", conn, RankOneBonds): bonds of band particles on nodes
-    zone: object = None          # the Transition (model.lattice.transition), else None
     material_D: np.ndarray = None  # elasticity matrix (Voigt), for stresses
-    bond_geometry: str = "linear"  # lattice bonds: linear (small strain) or nonlinear
-    break_strain: float = None     # lattice bonds break beyond this strain (nonlinear)
+    notes: tuple = ()              # what reading the mesh changed (solver.model.mesh), logged
+    shells: Shells | None = None   # shell surfaces (rotary inertia), or None
+    lattice: Lattice | None = None  # lattice bonds, overlap and carried cells, bond law, or None
     contact: tuple = None          # settings of model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
-    inertia: np.ndarray = None     # [n_nodes] rotary inertia of shell nodes (DOFs 3-5), or None
-    notes: tuple = ()              # what reading the mesh changed (solver.model.mesh), logged
+    zone: object = None            # the Transition (model.lattice.transition), else None
+
+    kind: ClassVar[str] = "continuum"
 
     @property
     def n_nodes(self) -> int:
@@ -69,14 +72,16 @@ class ContinuumArrays:
 
         def touching(cells):
             return [(fam, *kept(conn, Ke, inh[conn].any(axis=1))) for fam, conn, Ke in cells]
-        bonds = self.bonds
-        if bonds:
-            bi, bj, k = bonds
-            keep = inh[bi] | inh[bj]
-            bonds = (bi[keep], bj[keep], k[keep])
-        return dataclasses.replace(self, cells=touching(self.cells),
-                                   overlap_cells=touching(self.overlap_cells), bonds=bonds,
-                                   carried=touching(self.carried))
+        lat = self.lattice
+        if lat is not None:
+            bonds = lat.bonds
+            if bonds:
+                bi, bj, k = bonds
+                keep = inh[bi] | inh[bj]
+                bonds = (bi[keep], bj[keep], k[keep])
+            lat = dataclasses.replace(lat, bonds=bonds, overlap_cells=touching(lat.overlap_cells),
+                                      carried=touching(lat.carried))
+        return dataclasses.replace(self, cells=touching(self.cells), lattice=lat)
 
     def _cell_blocks(self, cells, held) -> list:
         inh = self._held(held)
@@ -101,15 +106,18 @@ class ContinuumArrays:
         return self._lattice_blocks(held)
 
     def _lattice_blocks(self, held: np.ndarray) -> list:
+        lat = self.lattice
+        if lat is None:
+            return []
         out = []
-        if self.bonds:
-            bi, bj, k = self.bonds
+        if lat.bonds:
+            bi, bj, k = lat.bonds
             inh = self._held(held)
             keep = inh[bi] & inh[bj]
             conn = np.stack([bi[keep], bj[keep]], axis=1)
             out.append((conn, BondStiffness(self.points, conn, k[keep])))
-        return out + self._cell_blocks(self.overlap_cells, held) + \
-            self._cell_blocks(self.carried, held)
+        return out + self._cell_blocks(lat.overlap_cells, held) + \
+            self._cell_blocks(lat.carried, held)
 
     def graph(self) -> Graph:
         """Adjacent nodes of every node (through cells or bonds).  Edge keys
@@ -117,7 +125,8 @@ class ContinuumArrays:
         stay small on large meshes."""
         n = np.int64(self.n_nodes)
         keys = []
-        for _, conn, _ in list(self.cells) + list(self.carried):
+        lat = self.lattice
+        for _, conn, _ in list(self.cells) + list(lat.carried if lat is not None else ()):
             k = conn.shape[1]
             off = ~np.eye(k, dtype=bool)
             for s in range(0, len(conn), 32768):
@@ -125,8 +134,8 @@ class ContinuumArrays:
                 pair = (c[:, :, None], c[:, None, :])
                 key = (pair[0] * n + pair[1])[:, off]
                 keys.append(np.unique(key[(pair[0] != pair[1])[:, off]]))  # carried bonds repeat nodes
-        if self.bonds:
-            bi, bj, _ = self.bonds
+        if lat is not None and lat.bonds:
+            bi, bj, _ = lat.bonds
             keys.append(np.concatenate([bi * n + bj, bj * n + bi]))
         key = np.unique(np.concatenate(keys)) if keys else np.zeros(0, dtype=np.int64)
         return Graph.from_keys(self.n_nodes, key)
@@ -306,10 +315,12 @@ def _build(scene, mesh, reach):
     if spec.lattice is not None:
         bonds, overlap, mass = attach_lattice(scene, mesh, mass, cells, reach)
     lat = spec.lattice
-    arrays = ContinuumArrays(dim, mesh.points, mass, cells, fixed, tuple(loads), np.zeros(n),
-                             np.zeros(n), bonds, overlap, material_D=mat.D(),
-                             bond_geometry=lat.geometry if lat else "linear",
-                             break_strain=lat.break_strain if lat else None,
+    arrays = ContinuumArrays(dof=dim, points=mesh.points, mass=mass, cells=cells, fixed=fixed,
+                             loads=tuple(loads), u0=np.zeros(n), v0=np.zeros(n),
+                             material_D=mat.D(),
+                             lattice=Lattice(bonds=bonds, overlap_cells=overlap,
+                                             geometry=lat.geometry,
+                                             break_strain=lat.break_strain) if lat else None,
                              contact=contact_of(lat) if lat else None)
     return _with_heat(arrays, scene, mesh)
 
@@ -363,13 +374,15 @@ def _with_zone(scene, mesh, zone, cells, mass):
     n_nodes = zone.n_mesh + zone.n_core
     n = n_nodes * dim
     lat = scene.model.lattice
-    return ContinuumArrays(dim, np.concatenate([mesh.points, zone.points]),
-                           np.concatenate([mass, zone.mass]), cells,
-                           fixed_dofs(scene, mesh, n_nodes, dim),
-                           tuple(load_list(scene, mesh, dim, dim)),
-                           np.zeros(n), np.zeros(n), zone.bonds, (), zone.blocks, zone,
-                           scene.model.material.elastic().D(), lat.geometry, lat.break_strain,
-                           contact_of(lat))
+    return ContinuumArrays(dof=dim, points=np.concatenate([mesh.points, zone.points]),
+                           mass=np.concatenate([mass, zone.mass]), cells=cells,
+                           fixed=fixed_dofs(scene, mesh, n_nodes, dim),
+                           loads=tuple(load_list(scene, mesh, dim, dim)),
+                           u0=np.zeros(n), v0=np.zeros(n),
+                           material_D=scene.model.material.elastic().D(),
+                           lattice=Lattice(bonds=zone.bonds, carried=zone.blocks,
+                                           geometry=lat.geometry, break_strain=lat.break_strain),
+                           contact=contact_of(lat), zone=zone)
 
 
 def load_list(scene, mesh, dof, space):

@@ -148,7 +148,7 @@ def element_steps(scene, mdl, blocks, keep=None):
                                                  (1 - scene.model.material.nu ** 2)))
              if c is not None else None)
     mass = _node_masses(mdl)
-    points = getattr(mdl, "points", None)
+    points = mdl.points
     steps, kinds, conns = [], [], []
     for conn, Ke in blocks:
         conn = np.asarray(conn)

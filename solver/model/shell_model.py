@@ -19,6 +19,7 @@ import numpy as np
 from solver.errors import SceneError
 from solver.model import shell
 from solver.model.elements import Family
+from solver.model.interface import Shells
 
 SHELL3 = Family("shell3", 2, 3, np.array([[1 / 3, 1 / 3]]), np.array([0.5]))
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
@@ -78,8 +79,9 @@ def build(scene, mesh):
     cells = [cell]
     fixed = fixed_dofs(scene, mesh, n, 6)
     loads = load_list(scene, mesh, 6, 3)
-    return ContinuumArrays(6, pts, mass, cells, fixed, tuple(loads), np.zeros(6 * n),
-                           np.zeros(6 * n), inertia=inertia)
+    return ContinuumArrays(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed,
+                           loads=tuple(loads), u0=np.zeros(6 * n), v0=np.zeros(6 * n),
+                           shells=Shells(inertia=inertia))
 
 
 # ------------------------------------------------------------ shells and solids
@@ -186,5 +188,6 @@ def build_mixed(scene, mesh, solid_cells, mass):
     fixed.reshape(n, 6)[still, 3:] = True                 # solid-only nodes do not rotate
     inertia[still] = np.maximum(mass[still], 1.0)          # (never used: those DOFs are fixed)
     loads = load_list(scene, mesh, 6, 3)
-    return ContinuumArrays(6, pts, mass, cells, fixed, tuple(loads), np.zeros(6 * n),
-                           np.zeros(6 * n), material_D=mat.elastic().D(), inertia=inertia)
+    return ContinuumArrays(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed,
+                           loads=tuple(loads), u0=np.zeros(6 * n), v0=np.zeros(6 * n),
+                           material_D=mat.elastic().D(), shells=Shells(inertia=inertia))

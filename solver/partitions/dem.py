@@ -41,7 +41,7 @@ class DemPartition(Partition):
                       f"{', '.join(self.fields)}",
                       f"bond operator {B.getSize()[0]}x{B.getSize()[0]} (type {B.getType()}, "
                       f"block size {B.getBlockSize()})"]
-        if getattr(model, "bond_geometry", "linear") == "linear":
+        if model.lattice is None or model.lattice.geometry == "linear":
             return LinearForce(B, blocks)
         return self._nonlinear(model, blocks, B)
 
@@ -57,11 +57,11 @@ class DemPartition(Partition):
         if len(lattice) > 1:
             stiff = BondStiffness(stiff.points, conn, np.concatenate([k.k for _, k in lattice]))
         other = self.operator(others, scale=-1.0) if others else None
-        contact = getattr(model, "contact", None)
-        force = BondForce(self, (conn, stiff), other, others, B, model.break_strain, contact,
-                          getattr(model, "heat", None), model.mass)
-        strain = (f", breaking beyond strain {model.break_strain:g}"
-                  if model.break_strain is not None else "")
+        contact = model.contact
+        force = BondForce(self, (conn, stiff), other, others, B, model.lattice.break_strain,
+                          contact, model.heat, model.mass)
+        strain = (f", breaking beyond strain {model.lattice.break_strain:g}"
+                  if model.lattice.break_strain is not None else "")
         if contact is not None:
             radius, k, skin, law, zeta, mu, _ = contact
             unit = "N/m^1.5" if law == "hertz" else "N/m"

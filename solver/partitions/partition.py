@@ -145,7 +145,7 @@ class Partition:
         self._internal = self.force.internal
         self._viscous = getattr(self.force, "viscous", None)
         self.thermal = None
-        heat = getattr(model, "heat", None)
+        heat = model.heat
         if heat is not None and heat.spec.expansion > 0 and self.force.blocks:
             from solver.partitions.thermal import ThermalForce
             self.thermal = ThermalForce(self, self.force.blocks, model.points, heat.n_model,

@@ -314,7 +314,7 @@ def with_contact(fr: Frequency, model, mass) -> Frequency:
     """``fr`` raised for particle contact (model.lattice.contact): lambda_max of
     the bonds plus 2 z k / m_min, z the largest coordination of spheres, k the
     contact stiffness (hertz: its tangent at an overlap of 0.1 r)."""
-    contact = getattr(model, "contact", None)
+    contact = model.contact
     if contact is None:
         return fr
     from solver.partitions.contact import coordination
