@@ -22,6 +22,7 @@ from time import perf_counter as _clock
 import numpy as np
 
 from solver.coupling.exchange import Exchange
+from solver.partitions import integrators
 from solver.petscutil import Stage, init
 
 
@@ -170,13 +171,13 @@ class Staggered(ConcurrentOverlap):
 
     @staticmethod
     def treatments(scene) -> list[str]:
-        return ["prescribed" if p.integrator == "implicit" else scene.coupling.external
+        return ["prescribed" if integrators.kind(p).implicit else scene.coupling.external
                 for p in scene.partitions]
 
     @staticmethod
     def _solved_last(scene) -> int:
         """The partition that solves after the other side's sub-steps."""
-        return next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
+        return next(k for k, p in enumerate(scene.partitions) if integrators.kind(p).implicit)
 
     def __init__(self, comm, dists, ranks, parts, dofmap, scene):
         self.parts = parts
