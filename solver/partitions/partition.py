@@ -228,7 +228,7 @@ class Partition:
             self.internal_force(u, self.r)
         self.loads.apply(self.R, t)
         if self.thermal is not None:
-            self.R += self.thermal.force
+            self.vectors.R += self.thermal.force
 
     def set_temperature(self, T_node, count=True):
         """Model-node temperatures (``heat``): thermal forces, bond rest lengths and
