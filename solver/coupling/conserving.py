@@ -41,7 +41,7 @@ from solver.coupling.scheme import two_sides
 from solver.coupling.system_step import Clocks
 from solver.coupling.gc import OwnSides
 from solver.errors import LaunchError, SceneError, SolverError
-from solver.partitions import stability
+from solver.partitions import integrators, stability
 from solver.partitions.assembly import kept
 from solver.partitions.dem import DemPartition
 from solver.partitions.fem import FemPartition
@@ -94,7 +94,7 @@ def sides(scene):
     """(fine index, coarse index): the coarse side is the implicit partition
     with the largest ratio."""
     parts = scene.partitions
-    c = max(range(2), key=lambda k: (parts[k].integrator == "implicit", parts[k].ratio))
+    c = max(range(2), key=lambda k: (integrators.kind(parts[k]).implicit, parts[k].ratio))
     return 1 - c, c
 
 
@@ -231,7 +231,7 @@ class Conserving(OwnSides):
         self.replay = self.F is not None and bool(self.F.damping)
         if self.F is not None:
             if self.F.damping:
-                self.F._am[self.F.n_own:] = 0.0           # interface inertia is the coarse side's
+                self.F.clear_external_mass_damping()      # interface inertia is the coarse side's
             self.F.n_energy = self.F.U.size               # its elements' energy on the interface rows
             self.r0 = np.zeros(self.n)
         if self.C is not None:
@@ -273,11 +273,11 @@ class Conserving(OwnSides):
         u_I(t_0) + s V; returns (mean reaction, last reaction).  The residuals
         are summed over all held rows with VecAXPY (cheaper per step than
         picking the interface rows) and the interface rows read once."""
-        F, rf, step, m = self.F, self.rf, self.F._step, self.m
+        F, rf, step, m = self.F, self.rf, self.F.step_once, self.m
         F.V[rf], F.A[rf] = V, 0.0
         racc, axpy, r = self._racc, self._racc.axpy, F.r
         racc.set(0.0)
-        rows, path, values, groups = self._ld_rows, self._path, self._values, F._owned_loads
+        rows, path, values, groups = self._ld_rows, self._path, self._values, F.load_groups
         for j in range(1, m + 1):
             step(t0 + j * F.dt)             # central difference or velocity Verlet
             axpy(1.0 if j < m else 0.5, r)  # the residual at the step's new displacement
@@ -296,7 +296,7 @@ class Conserving(OwnSides):
         n, F, C = self.n, self.F, self.C
         Rbar, X, self.Rm = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
         if F is not None:
-            groups = F._owned_loads
+            groups = F.load_groups
             self._ld_rows = np.concatenate([g.own for g in groups]) if groups else \
                 np.zeros(0, np.int64)
             self._path = np.zeros((self.m + 1, self._ld_rows.size))
@@ -309,19 +309,18 @@ class Conserving(OwnSides):
             self._ld_resp = np.zeros((self.m + 1, self._ld_rows.size, n))
             self._Racc = np.zeros(F.R.size)
             self._racc = P.Vec().createWithArray(self._Racc, comm=P.COMM_SELF)
-            saved, loads = F.state.copy(), F._loads
-            F._loads = []                       # the response to V alone
+            saved = F.state.copy()
             cols = []
-            for k in range(n):
-                F.state[...] = 0.0
-                V = np.zeros(n)
-                V[k] = 1.0
-                Rbar[:, k], self.Rm[:, k] = self._fine_pass(0.0, V, loads=False)
-                self._ld_resp[:, :, k] = self._path
-                reached = np.flatnonzero(F.state.reshape(-1))
-                cols.append((reached, F.state.reshape(-1)[reached]))
+            with F.loads_off():                 # the response to V alone
+                for k in range(n):
+                    F.state[...] = 0.0
+                    V = np.zeros(n)
+                    V[k] = 1.0
+                    Rbar[:, k], self.Rm[:, k] = self._fine_pass(0.0, V, loads=False)
+                    self._ld_resp[:, :, k] = self._path
+                    reached = np.flatnonzero(F.state.reshape(-1))
+                    cols.append((reached, F.state.reshape(-1)[reached]))
             F.state[...] = saved
-            F._loads = loads
             self.S = self._response(cols, F.state.size, P)
             self._Vf = np.zeros(n)
             self._link = (P.Vec().createWithArray(self._Vf, comm=P.COMM_SELF),
@@ -389,11 +388,11 @@ class Conserving(OwnSides):
             self.comm.Bcast(r0, root=self._owner(self.f))
         if self.C is not None:
             self.G0 = -r0
-            self.C.A[self.rc] += self.G0 * self.C._minv[self.rc]
+            self.C.A[self.rc] += self.G0 * self.C.inverse_mass[self.rc]
 
     def _reaction(self):
         F = self.F
-        F._internal(F.u, F.r)
+        F.internal_force(F.u, F.r)
         self.r0 = -F.R[self.rf]
 
     def synchronise(self):
@@ -478,7 +477,7 @@ class Conserving(OwnSides):
         uF0 = F.U[self.rf].copy()
         if self._ld_rows.size:
             self._u0 = F.U[self._ld_rows]
-            self._values[0] = [g.val_prev for g in F._owned_loads]
+            self._values[0] = [g.val_prev for g in F.load_groups]
         if self.replay:
             self._start = (t0, F.state.copy())
             F.stepping = False                      # no dissipation on the free path
@@ -516,7 +515,7 @@ class Conserving(OwnSides):
         path[0] = self._u0
         force = self._values @ self._scale                      # [m + 1, loaded rows]
         F.work += float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(path, axis=0)))
-        for g in F._owned_loads:
+        for g in F.load_groups:
             g.u_prev[:] = F.U[g.own]
             g.val_prev = g.val
 
@@ -541,5 +540,5 @@ class Conserving(OwnSides):
         round-off).  With G = -r_m the coarse interface acceleration is
         Newton's at t_m: (coarse forces + the fine side's reaction) / m_I."""
         C, rc = self.C, self.rc
-        C.A[rc] += (G - self.G0) * C._minv[rc]
+        C.A[rc] += (G - self.G0) * C.inverse_mass[rc]
         self.G0 = G

@@ -23,7 +23,7 @@ import dataclasses
 
 import numpy as np
 
-from solver.partitions import stability
+from solver.partitions import integrators, stability
 from solver.coupling.scheme import Scheme, two_sides
 from solver.coupling.system_step import Clocks
 from solver.partitions.fem import FemPartition
@@ -35,7 +35,7 @@ from solver.scene.schema import fail
 def subdomains(scene, mdl):
     """(models, layouts, interface nodes) of the fine (A) and coarse (B) subdomains."""
     parts = scene.partitions
-    b = next(k for k, p in enumerate(parts) if p.integrator == "implicit")
+    b = next(k for k, p in enumerate(parts) if integrators.kind(p).implicit)
     a = 1 - b
     nodes = [np.asarray(sorted(p.nodes), dtype=np.int64) for p in parts]
     in_a = np.zeros(mdl.n_nodes + 1, bool)

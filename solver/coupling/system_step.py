@@ -22,6 +22,7 @@ from time import perf_counter as _clock
 
 from solver.coupling.exchange import Exchange
 from solver.coupling.scheme import Scheme, two_sides
+from solver.partitions import integrators
 from solver.petscutil import Stage, init
 
 
@@ -198,13 +199,13 @@ class Staggered(ConcurrentOverlap):
 
     @staticmethod
     def treatments(scene) -> list[str]:
-        return ["prescribed" if p.integrator == "implicit" else scene.coupling.external
+        return ["prescribed" if integrators.kind(p).implicit else scene.coupling.external
                 for p in scene.partitions]
 
     @staticmethod
     def _solved_last(scene) -> int:
         """The partition that solves after the other side's sub-steps."""
-        return next(k for k, p in enumerate(scene.partitions) if p.integrator == "implicit")
+        return next(k for k, p in enumerate(scene.partitions) if integrators.kind(p).implicit)
 
     def _exchanges(self, scene, built, comm) -> list:
         """One exchange per direction: to the solving side, then back."""

@@ -146,7 +146,7 @@ class StressProbes:
                     dT = heat.T_node[nodes] - heat.spec.initial
                     got[name] -= heat.spec.expansion * float(np.dot(w, dT))
         for force, u, probes in self.current:
-            x = force._positions(u)                 # collective (ghost particles)
+            x = force.positions(u)                  # collective (ghost particles)
             for name, loc, at, c, V in probes:
                 d = x[force.j[at]] - x[force.i[at]]
                 L = np.linalg.norm(d, axis=1)

@@ -109,7 +109,7 @@ class BondForce:
             self.viscous = None                  # the partition then makes no call per step
 
     # ---------------------------------------------------------------- state
-    def _positions(self, u_vec):
+    def positions(self, u_vec):
         """Positions X + u of the held and ghost particles (refreshing the ghosts:
         collective), in a buffer the next call overwrites."""
         x, X, n = self._x, self.X, self.n_held
@@ -120,7 +120,7 @@ class BondForce:
         return x
 
     def _bonds(self, u_vec):
-        x = self._positions(u_vec)
+        x = self.positions(u_vec)
         d = x[self.j] - x[self.i]
         L = np.linalg.norm(d, axis=1)
         return x, d, L
@@ -129,7 +129,7 @@ class BondForce:
         """out = f_int(u); bonds beyond their critical strain break first (at
         ``now``).  The compiled loop (:mod:`solver.partitions.bond_kernel`)."""
         from solver.partitions.bond_kernel import bond_forces
-        x, n = self._positions(u_vec), self.n_held
+        x, n = self.positions(u_vec), self.n_held
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
         out = out_vec.getArray().reshape(n, self.dim)
@@ -208,7 +208,7 @@ class BondForce:
             from solver.partitions.bond_kernel import rest_length_work
             if self._shares is None:
                 self._shares = self._share()
-            work = rest_length_work(self._positions(self.part.u), self.i, self.j, self.k,
+            work = rest_length_work(self.positions(self.part.u), self.i, self.j, self.k,
                                     self.L0, L0, self.alive, self._shares)
         self.T, self.L0 = T, L0
         if self.break_strain is not None and spec.melting is not None:

@@ -37,7 +37,7 @@ class DemPartition(Partition):
         blocks = model.bond_blocks(self.whole_held())
         B = self.operator(blocks, scale=-1.0)
         B.setName(f"{self.name}_bonds")
-        self.built = [f"particles {n_p} ({layout.n_owned} owned), fields "
+        self.built += [f"particles {n_p} ({layout.n_owned} owned), fields "
                       f"{', '.join(self.fields)}",
                       f"bond operator {B.getSize()[0]}x{B.getSize()[0]} (type {B.getType()}, "
                       f"block size {B.getBlockSize()})"]

@@ -32,10 +32,10 @@ class FemPartition(Partition):
         K = self.operator(blocks, scale=-1.0)
         K.setName(f"{self.name}_stiffness")
         n = K.getSize()[0]
-        self.built = [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
+        self.built += [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
                       f"type {K.getType()}, block size {K.getBlockSize()})", "lumped mass"]
         force = LinearForce(K, blocks)
-        if self.integrator.name == "implicit":
+        if self.integrator.needs_ksp:
             self._build_solver(force.blocks)
         return force
 
@@ -107,7 +107,7 @@ class FemPartition(Partition):
         return B
 
     def accelerate(self):
-        if self.integrator.name != "implicit":
+        if not self.integrator.needs_ksp:
             return super().accelerate()
         a, r, _ = self._solve
         if self._fixed_rows.size:
@@ -123,7 +123,7 @@ class FemPartition(Partition):
 
     def destroy(self):
         super().destroy()
-        if self.integrator.name == "implicit":
+        if self.integrator.needs_ksp:
             self.ksp.destroy()
             for obj in self._mats:
                 obj.destroy()

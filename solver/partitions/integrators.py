@@ -11,10 +11,33 @@ system step is then a loop of ``step`` calls.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
+
+
+class Integrator:
+    """What a partition and a scheme ask an integrator (one class per
+    integrator; ``make`` picks the class by the scene name):
+
+    name        the ``partitions[].integrator`` value
+    implicit    the acceleration solve is K_eff a = r (a KSP), not M a = r
+    needs_ksp   the partition builds the effective matrix and its KSP
+    work        names of the work Vecs the partition makes for it (``p.ut``)
+    mass_damping_factor(h, alpha)  the lumped mass is divided by it: explicit
+                Newmark folds gamma h alpha M into its diagonal solve
+    critical_omega_h(), describe(), step(p, t1), bind(p) -> step(t1)
+    """
+
+    name: ClassVar[str] = "?"
+    implicit: ClassVar[bool] = False
+    needs_ksp: ClassVar[bool] = False
+    work: ClassVar[tuple] = ()
+
+    def mass_damping_factor(self, h: float, alpha: float) -> float:
+        return 1.0
 
 
 @dataclass(frozen=True)
-class Newmark:
+class Newmark(Integrator):
     """Newmark predictor-corrector; explicit (diagonal mass solve) or implicit
     (effective-matrix solve) form of the same code path.
 
@@ -35,18 +58,13 @@ class Newmark:
 
     beta: float = 0.25
     gamma: float = 0.5
-    implicit: bool = False
-    work = ("ut", "vt")
+    work: ClassVar[tuple] = ("ut", "vt")
     about = ("fem partitions, integrator explicit or implicit: Newmark predictor-corrector "
              "(partitions[].beta, gamma; default 0.25, 0.5), second order for gamma 0.5. "
              "explicit: lumped mass, no solve; stable for omega_max h < 2 whatever beta "
              "(beta 0: central difference). implicit: M + gamma h C + beta h^2 K solved once "
              "per step (a KSP, PETSc options with the partition's prefix); unconditionally "
              "stable for 2 beta >= gamma >= 0.5, else omega_max h < 1/sqrt(gamma/2 - beta)")
-
-    @property
-    def name(self) -> str:
-        return "implicit" if self.implicit else "explicit"
 
     def critical_omega_h(self) -> float:
         """Largest stable omega*h."""
@@ -107,7 +125,27 @@ class Newmark:
 
 
 @dataclass(frozen=True)
-class VelocityVerlet:
+class ExplicitNewmark(Newmark):
+    """Newmark, explicit form: the lumped (diagonal) mass solve."""
+
+    name: ClassVar[str] = "explicit"
+
+    def mass_damping_factor(self, h: float, alpha: float) -> float:
+        """(M + gamma h alpha M) a = f - K u~ - C v~: second order in alpha, still diagonal."""
+        return 1.0 + self.gamma * h * alpha
+
+
+@dataclass(frozen=True)
+class ImplicitNewmark(Newmark):
+    """Newmark, implicit form: K_eff = M + gamma h C + beta h^2 K solved by a KSP."""
+
+    name: ClassVar[str] = "implicit"
+    implicit: ClassVar[bool] = True
+    needs_ksp: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class VelocityVerlet(Integrator):
     """Velocity Verlet (Li et al. 2023, eq. 6 with its typo fixed).
 
     x' = x + h v + h^2/2 a ;  a' = F(x', v + h/2 a)/m ;  v' = v + h/2 (a + a')
@@ -117,8 +155,7 @@ class VelocityVerlet:
     undamped, 2 (sqrt(1 + xi^2) - xi) with damping ratio xi at omega_max.
     """
 
-    name = "verlet"
-    work = ()
+    name: ClassVar[str] = "verlet"
     about = ("dem partitions, integrator verlet: velocity Verlet, second order, symplectic "
              "without damping (first order in the damping terms); stable for omega_max h < 2, "
              "2 (sqrt(1 + xi^2) - xi) with damping ratio xi at omega_max")
@@ -150,13 +187,19 @@ class VelocityVerlet:
         return step
 
 
-def make(spec):
+CATALOGUE = (Newmark, VelocityVerlet)           # the user texts (``about``) of ``schemes``
+KINDS = {cls.name: cls for cls in (ExplicitNewmark, ImplicitNewmark, VelocityVerlet)}
+
+
+def kind(spec) -> type:
+    """The integrator class of a :class:`solver.scene.Partition` (``kind(spec).implicit``)."""
+    try:
+        return KINDS[spec.integrator]
+    except KeyError:
+        raise ValueError(spec.integrator) from None
+
+
+def make(spec) -> Integrator:
     """The integrator of a :class:`solver.scene.Partition`."""
-    if spec.integrator in ("explicit", "implicit"):
-        return Newmark(spec.beta, spec.gamma, implicit=spec.integrator == "implicit")
-    if spec.integrator == "verlet":
-        return VelocityVerlet()
-    raise ValueError(spec.integrator)
-
-
-CATALOGUE = (Newmark, VelocityVerlet)
+    cls = kind(spec)
+    return cls(spec.beta, spec.gamma) if issubclass(cls, Newmark) else cls()

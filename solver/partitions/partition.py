@@ -20,62 +20,85 @@ External-data treatments (``coupling.external``):
 Subclasses (:mod:`solver.partitions.fem`, :mod:`solver.partitions.dem`) build the partition's force
 object (:mod:`solver.partitions.force`); the partition only asks it for the internal
 force, the strain energy and the tangent.
+
+A partition is composed of small parts (docs/dev/partition.md):
+  vectors  :class:`~solver.partitions.state.State`      state [3, n], R, the integrator's work Vecs
+  masses   :class:`~solver.partitions.mass.LumpedMass`   mass, its inverse (0 on fixed DOFs), minv
+  loads    :class:`~solver.partitions.loads.Loads`       load groups, external work, their memory
+  damping  :class:`~solver.partitions.damping.Damping`   Rayleigh terms (None when undamped)
+  audit    :class:`~solver.partitions.audit.EnergyAudit` what damping and dashpots dissipate
+  thermal  :class:`~solver.partitions.thermal.ThermalForce` (None without thermal expansion)
+  force    :mod:`solver.partitions.force`                internal force, energy, tangent
+The names other modules use (``part.U``, ``part.state``, ``part.work``,
+``part.dissipated``, ``part.mass``, ...) are properties on these parts.
+
+What a coupling scheme may use beyond the state: ``step_once(t)`` (one step of
+the integrator to time t), ``internal_force(u, out)``, ``residual``,
+``accelerate``, ``after_step``, ``with loads_off():``, ``load_groups`` (the
+owned groups), ``inverse_mass`` and ``clear_external_mass_damping()``.
 """
 from __future__ import annotations
 
+from contextlib import contextmanager
+from operator import attrgetter
+
 import numpy as np
 
-from solver.model.arrays import dof_masses
 from solver.partitions import integrators
+from solver.partitions.audit import EnergyAudit
+from solver.partitions.damping import Damping
+from solver.partitions.loads import Loads
+from solver.partitions.mass import LumpedMass
+from solver.partitions.state import State
 from solver.petscutil import vec_on
 
 
-class LoadGroup:
-    """Loaded DOFs sharing one time function g: f = g(t) * scale at ``idx``;
-    ``own`` marks the owned ones (their external work is this partition's).
-    A single DOF takes a scalar path (no numpy call overhead per step)."""
+def _forward(part: str, name: str, doc: str = "", settable: bool = False):
+    """A property of Partition that is attribute ``name`` of its part ``part``."""
+    get = attrgetter(f"{part}.{name}")           # (C speed: the state is read every step)
 
-    def __init__(self, key, at, idx, scale, own):
-        self.key = key              # index of the group's first load in the model
-        self.at = at
-        self.idx = np.asarray(idx, dtype=np.int64)
-        self.scale = np.asarray(scale, dtype=float)
-        own = np.asarray(own, dtype=bool)
-        self.own, self.own_scale = self.idx[own], self.scale[own]
-        self.single = self.idx.size == 1
-        self.i0, self.s0 = int(self.idx[0]), float(self.scale[0])
-        self.val = self.val_prev = 0.0
-        self.u_prev = np.zeros(self.own.size)
+    def set_(self, value):
+        setattr(getattr(self, part), name, value)
+    return property(get, set_ if settable else None, doc=doc or f"``{part}.{name}``")
 
-    def apply(self, R, t):
-        """R += f(t); remembers g(t) for the work."""
-        v = self.val = self.at(t)
-        if self.single:
-            R[self.i0] += v * self.s0
-        else:
-            R[self.idx] += v * self.scale          # DOFs are distinct within a group
 
-    def remember(self, U):
-        self.val_prev = self.val
-        self.u_prev[:] = U[self.own]
-
-    def work_increment(self, U) -> float:
-        """1/2 (f_n + f_n+1) . (u_n+1 - u_n) over the owned DOFs, then remember."""
-        if self.single:
-            u = float(U[self.i0])
-            w = 0.5 * (self.val_prev + self.val) * self.s0 * (u - self.u_prev[0])
-            self.u_prev[0] = u
-        else:
-            u = U[self.own]
-            w = 0.5 * (self.val_prev + self.val) * float(np.dot(self.own_scale, u - self.u_prev))
-            self.u_prev[:] = u
-        self.val_prev = self.val
-        return w
+def _work_vec(name):
+    def get(self):
+        try:
+            return self.vectors.vecs[name]
+        except KeyError:
+            raise AttributeError(f"{self.integrator.name} integrators have no work Vec {name}") \
+                from None
+    return property(get, doc=f"the integrator work Vec {name} (Newmark)")
 
 
 class Partition:
     method = "?"
     failed = False          # set by the scheme when stepping raised; it then stops stepping
+
+    state = _forward("vectors", "state", "[3, n_held_dofs]: rows U, V, A")
+    U = _forward("vectors", "U")
+    V = _forward("vectors", "V")
+    A = _forward("vectors", "A")
+    u = _forward("vectors", "u")
+    v = _forward("vectors", "v")
+    a = _forward("vectors", "a")
+    R = _forward("vectors", "R")
+    r = _forward("vectors", "r")
+    mass = _forward("masses", "mass", "[n_held_dofs] lumped mass")
+    inverse_mass = _forward("masses", "inverse", "[n_held_dofs] the diagonal solve's M^-1 "
+                            "(0 on fixed DOFs)")
+    minv = _forward("masses", "minv")
+    fixed_dofs = _forward("masses", "fixed")
+    work = _forward("loads", "work", "external work of the owned loads (and thermal)", True)
+    dissipated = _forward("audit", "dissipated", "energy dissipated so far", True)
+    stepping = _forward("audit", "stepping", "the audit counts (False: a pass not the run's)",
+                        True)
+    track_dissipation = _forward("audit", "track")
+    load_groups = _forward("loads", "owned", "the owned load groups (their work is this "
+                           "partition's)")
+    ut = _work_vec("ut")
+    vt = _work_vec("vt")
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
                  system_ratio: int, damping=None, dist=None, graph=None):
@@ -102,47 +125,32 @@ class Partition:
         # this rank's rows in the partition's distributed DOF numbering
         self.first = sum(dm.count(pc.held) for pc in self.dist.pieces[:layout.piece])
         self.n_global = dm.count(self.dist.layout.held)
-        self.state = np.zeros((3, n))
-        self.U, self.V, self.A = self.state
-        self.u, self.v, self.a = (vec_on(x, comm) for x in (self.U, self.V, self.A))
-        self.R = np.zeros(n)
-        self.r = vec_on(self.R, comm)
-        self._work = {name: np.zeros(n) for name in self.integrator.work}
-        for name, arr in self._work.items():
-            setattr(self, name, vec_on(arr, comm))
-        self.mass = dof_masses(model, held)
-        self._minv = 1.0 / self.mass
-        self.fixed_dofs = model.fixed[self.held_dofs]
-        self._minv[self.fixed_dofs] = 0.0                     # fixed DOFs never accelerate
-        self.minv = vec_on(self._minv, comm)
+        self.vectors = State(n, comm, self.integrator.work, self.prefix)
+        damped = damping is not None and damping.active
+        # explicit Newmark: (M + gamma h alpha M) a = f - K u~ - C v~ keeps the
+        # mass-proportional part second order and the solve diagonal
+        factor = self.integrator.mass_damping_factor(self.dt, damping.alpha) if damped else 1.0
+        self.masses = LumpedMass(model, held, self.held_dofs, comm, factor, self.prefix)
         # taylor / prescribed: the acceleration solve covers the owned DOFs only,
         # so external accelerations keep their exchanged values
         self.frozen = treatment in ("taylor", "prescribed")
         m = self.n_own if self.frozen else n
         self._solve = (vec_on(self.A[:m], comm), vec_on(self.R[:m], comm),
-                       vec_on(self._minv[:m], comm))
+                       vec_on(self.inverse_mass[:m], comm))
         self._views = list(self._solve)
-        self.corrected = (self.u, self.v, self.a, *(getattr(self, w) for w in self.integrator.work))
+        self.corrected = (self.u, self.v, self.a, *self.vectors.vecs.values())
         if treatment == "prescribed" and self.integrator.work:
+            work = self.vectors.work
             owned = [vec_on(x[:self.n_own], comm) for x in
-                     (self.U, self.V, self.A, self._work["ut"], self._work["vt"])]
+                     (self.U, self.V, self.A, work["ut"], work["vt"])]
             self.corrected = tuple(owned)
             self._views += owned
-        self._setup_loads(model, layout)
-        self.damping = damping if damping is not None and damping.active else None
-        if self.damping and self.integrator.name == "explicit":
-            # explicit Newmark: (M + gamma h alpha M) a = f - K u~ - C v~ keeps the
-            # mass-proportional part second order and the solve diagonal
-            self._minv /= 1.0 + self.integrator.gamma * self.dt * self.damping.alpha
-        if self.damping:
-            # r = f - K u - beta K v - alpha M v: work Vecs made only when damped
-            self._am = self.damping.alpha * self.mass
-            self.am_v = vec_on(np.zeros(n), comm)
-            self.alpha_m = vec_on(self._am, comm)
-        for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
-            getattr(self, name).setOptionsPrefix(self.prefix)
+        self.loads = Loads.of(model, layout, self.starts)
+        # r = f - K u - beta K v - alpha M v: its terms and work Vecs only when damped
+        self.damping = Damping.of(damping, self.mass, comm)
+        self.built = []                         # what was built, for the log (subclasses add)
         self.force = self.build_force(model, layout)
-        self._internal = self.force.internal
+        self.internal_force = self.force.internal     # internal_force(u, out): out = f_int(u)
         self._viscous = getattr(self.force, "viscous", None)
         self.thermal = None
         heat = model.heat
@@ -152,17 +160,16 @@ class Partition:
                                         heat.spec)
             self.built.append("thermal forces alpha G dT of the elements (G: "
                               f"{self.held_dofs.size}x{heat.n_model})")
-        self._step = self.integrator.bind(self)
+        self.step_once = self.integrator.bind(self)   # step_once(t1): one step to time t1
         self.steps = 0
         self.wall = 0.0
         # the energy audit: what Rayleigh damping and contact dashpots dissipate,
         # h v.C v per step at the velocity the residual uses (energy/dissipated)
-        self.track_dissipation = not self.force.linear or bool(self.damping)
-        self.dissipated = 0.0
-        self.stepping = False
+        self.audit = EnergyAudit(not self.force.linear or bool(self.damping), self.dt, self.n_own)
 
     # ------------------------------------------------------------------ set-up
     def build_force(self, model, layout):
+        """The partition's force object; may add lines to ``self.built``."""
         raise NotImplementedError
 
     @property
@@ -182,27 +189,6 @@ class Partition:
         """Held nodes of the whole partition (all its pieces)."""
         return self.dist.layout.held
 
-    def _setup_loads(self, model, layout):
-        """Group the held loaded DOFs by time function: one numpy update per group
-        and step (a traction on a face is one group), not a Python loop per DOF."""
-        nodes, comps = model.dofmap.node_of([l.dof for l in model.loads])
-        local = layout.local(nodes) if nodes.size else nodes
-        groups: dict[int, tuple] = {}
-        first: dict[int, int] = {}
-        for i, load in enumerate(model.loads):
-            first.setdefault(id(load.function), i)
-        for load, loc, comp in zip(model.loads, local, comps):
-            if loc < 0:
-                continue
-            _, at, idx, scale, own = groups.setdefault(
-                id(load.function), (first[id(load.function)], load.function.at, [], [], []))
-            idx.append(int(self.starts[loc] + comp))
-            scale.append(load.scale)
-            own.append(loc < layout.n_owned)
-        self._loads = [LoadGroup(*g) for g in groups.values()]
-        self._owned_loads = [g for g in self._loads if g.own.size]
-        self.work = 0.0
-
     def describe(self) -> str:
         lay = self.layout
         ext = " + ".join(str(l.size) for l in lay.layers) or "0"
@@ -212,6 +198,18 @@ class Partition:
                 f"{_ids(lay.boundary)}, interior {lay.interior.size}), external {ext} in "
                 f"{len(lay.layers)} layer(s) {_ids(lay.external)}")
 
+    # ------------------------------------------------------- for the schemes
+    @contextmanager
+    def loads_off(self):
+        """Inside, the residual applies no load (a response to other causes alone)."""
+        with self.loads.off():
+            yield
+
+    def clear_external_mass_damping(self):
+        """No alpha M v on the external rows (their inertia is another side's)."""
+        if self.damping:
+            self.damping.clear_rows(self.n_own)
+
     # ---------------------------------------------------------------- physics
     def residual(self, t, u, v):
         """r = f(t) - K u - C v, C = alpha M + beta K (undamped partitions ignore v).
@@ -219,35 +217,18 @@ class Partition:
         stiffness-proportional damping with the tangent at rest."""
         if not self.force.linear:
             self.force.now = t
-            self._internal(u, self.r)
+            self.internal_force(u, self.r)
             if v is not None and self._viscous is not None:            # contact dashpots
-                power = self._viscous(v, self.r)
-                if self.track_dissipation and self.stepping:
-                    self.dissipated += self.dt * power
+                self.audit.add(self._viscous(v, self.r))
             if self.damping and v is not None:
-                self.force.tangent().mult(v, self.am_v)            # -K0 v
-                self.r.axpy(self.damping.beta, self.am_v)
-                self._dissipate(v, -self.damping.beta)
-                self.am_v.pointwiseMult(self.alpha_m, v)
-                self.r.axpy(-1.0, self.am_v)
-                self._dissipate(v, 1.0)
+                self.damping.nonlinear(self.force.tangent(), v, self.r, self.audit)
         elif self.damping and v is not None:
-            if self.damping.beta:                    # -K u - beta K v, beta v.K v dissipated
-                self._internal(v, self.am_v)
-                self._dissipate(v, -self.damping.beta)
-                self._internal(u, self.r)
-                self.r.axpy(self.damping.beta, self.am_v)
-            else:
-                self._internal(u, self.r)
-            self.am_v.pointwiseMult(self.alpha_m, v)
-            self.r.axpy(-1.0, self.am_v)
-            self._dissipate(v, 1.0)
+            self.damping.linear(self.internal_force, u, v, self.r, self.audit)
         else:
-            self._internal(u, self.r)
-        for group in self._loads:
-            group.apply(self.R, t)
+            self.internal_force(u, self.r)
+        self.loads.apply(self.R, t)
         if self.thermal is not None:
-            self.R += self.thermal.force
+            self.vectors.R += self.thermal.force
 
     def set_temperature(self, T_node, count=True):
         """Model-node temperatures (``heat``): thermal forces, bond rest lengths and
@@ -263,14 +244,6 @@ class Partition:
         if self.thermal is not None:
             self.work += self.thermal.track(count)
 
-    def _dissipate(self, v, scale):
-        """dissipated += h scale v . am_v over the owned DOFs (the damping power
-        of the step, at the velocity the residual uses), once stepping."""
-        if self.track_dissipation and self.stepping:
-            n = self.n_own
-            self.dissipated += self.dt * scale * float(
-                np.dot(v.getArray(readonly=True)[:n], self.am_v.getArray(readonly=True)[:n]))
-
     def accelerate(self):
         """a = M^-1 r; under the taylor treatment external a keeps its exchanged value."""
         a, r, minv = self._solve
@@ -282,43 +255,29 @@ class Partition:
         self.V[:] = model.v0[self.held_dofs]
         self.residual(0.0, self.u, self.v)
         self.a.pointwiseMult(self.r, self.minv)
-        self._remember_loads()
+        self.loads.remember(self.U)
         self.stepping = True
 
     def load_memory(self) -> dict:
         """{load key: last load value} of the owned load groups (checkpoint state)."""
-        return {g.key: g.val_prev for g in self._owned_loads}
+        return self.loads.memory()
 
     def restore_load_memory(self, values: dict):
-        for group in self._loads:
-            if group.key in values:
-                group.val = group.val_prev = values[group.key]
-        for group in self._owned_loads:
-            group.u_prev[:] = self.U[group.own]
-
-    def _remember_loads(self):
-        for group in self._owned_loads:
-            group.remember(self.U)
+        self.loads.restore(values, self.U)
 
     def after_step(self):
         """Bookkeeping after every completed step: step count and external work."""
         self.steps += 1
-        self._track_work()
-
-    def _track_work(self):
-        """W += 1/2 (f_n + f_n+1) . (u_n+1 - u_n) over the owned loaded DOFs (the
-        work the trapezoidal rule balances exactly)."""
-        for group in self._owned_loads:
-            self.work += group.work_increment(self.U)
+        self.loads.track(self.U)
 
     def advance(self, t0: float):
         """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
-        step, h = self._step, self.dt
-        if self._owned_loads:
-            track = self._track_work
+        step, h = self.step_once, self.dt
+        if self.loads.owned:
+            track, U = self.loads.track, self.U
             for k in range(1, self.n_sub + 1):
                 step(t0 + k * h)
-                track()
+                track(U)
         else:
             for k in range(1, self.n_sub + 1):
                 step(t0 + k * h)
@@ -336,23 +295,22 @@ class Partition:
 
     def work_array(self, name: str) -> np.ndarray:
         """numpy view of an integrator work Vec (``ut``, ``vt`` for Newmark)."""
-        return self._work[name]
+        return self.vectors.work[name]
 
     def local_index(self, node: int, component: int) -> int:
         loc = int(self.layout.local(np.array([node]))[0])
         return int(self.starts[loc]) + component
 
     def destroy(self):
-        for name in ("u", "v", "a", "r", "minv", *self.integrator.work):
-            getattr(self, name).destroy()
+        self.vectors.destroy()
+        self.masses.destroy()
         self.force.destroy()
         if self.thermal is not None:
             self.thermal.destroy()
         for vec in self._views:
             vec.destroy()
         if self.damping:
-            for vec in (self.am_v, self.alpha_m):
-                vec.destroy()
+            self.damping.destroy()
 
 
 def _ids(nodes, limit=6) -> str:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.collective import agree, on_root
-from solver.partitions import distribute
+from solver.partitions import distribute, integrators
 from solver.coupling import overlap
 from solver.partitions import ranks
 from solver.partitions import stability
@@ -188,14 +188,15 @@ def coupled_step_warnings(scene, crit_by_rank) -> list[str]:
     crit = {}
     for chunk in crit_by_rank:
         crit.update(chunk)
-    explicit = [crit[p.name] for p in scene.partitions if p.integrator != "implicit" and p.name in crit]
+    explicit = [crit[p.name] for p in scene.partitions if not integrators.kind(p).implicit
+                and p.name in crit]
     if not explicit or len(scene.partitions) < 2:
         return []
     limit = min(explicit)
     out = []
     for p in scene.partitions:
         dt = p.ratio * scene.time.dt
-        if p.integrator == "implicit" and dt > COUPLED_IMPLICIT_STEP * limit:
+        if integrators.kind(p).implicit and dt > COUPLED_IMPLICIT_STEP * limit:
             step, critical = stability.seconds(dt, limit)
             out.append(f"implicit partition '{p.name}' steps {step} s, {dt / limit:.2f} x the "
                        f"critical step {critical} s of the explicit partitions it is coupled to; "

@@ -330,8 +330,9 @@ def with_contact(fr: Frequency, model, mass) -> Frequency:
 def verdict(scene, spec, fr: Frequency):
     """(critical step, problem message or None) of partition ``spec`` at ``fr``."""
     from solver.partitions import integrators
-    limit = integrators.make(spec).critical_omega_h()
-    if scene.damping.active and spec.integrator != "implicit":
+    integrator = integrators.make(spec)
+    limit = integrator.critical_omega_h()
+    if scene.damping.active and not integrator.implicit:
         xi = scene.damping.ratio(fr.omega_max)
         limit = 2.0 * (np.sqrt(1.0 + xi * xi) - xi)
     limit, why = scene.scheme.step_limit(scene, spec, limit)     # the coupling scheme's rule
