@@ -287,14 +287,7 @@ def test_no_module_outside_the_scheme_classes_tests_a_scheme_name():
     assert not found, "\n".join(found)
 
 
-# being replaced by the partition's public interface (another change); the
-# coordinator empties this set after merging it
-ALLOWED = {("solver/coupling/conserving.py", "F._am"), ("solver/coupling/conserving.py", "F._step"),
-           ("solver/coupling/conserving.py", "F._loads"),
-           ("solver/coupling/conserving.py", "F._owned_loads"),
-           ("solver/coupling/conserving.py", "C._minv"),
-           ("solver/coupling/conserving.py", "F._internal"),
-           ("solver/driver/stress.py", "force._positions")}
+ALLOWED: set = set()     # schemes use the partition's public interface (partitions/partition.py)
 
 
 def private_reads(source: str):
