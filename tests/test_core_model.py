@@ -194,7 +194,7 @@ ALLOWED = {
     ("coupling/conserving.py", "self._model", None),  # SideModel delegates to its model
     ("driver/runner.py", "p.force", "break_strain"),  # partition force objects
     ("driver/fields.py", "p.force", "break_strain"),
-    ("scene/sections.py", "self.model", "lattice"),   # the scene's model section
+    ("coupling/conserving.py", "scene.model", "lattice"),   # the scene's model section
     ("model/data.py", "data", "points"),              # model data: a Mesh or a Network
     ("driver/runner.py", "scene.reference", "kind"),  # the scene's reference: a name or a section
     ("driver/comparison.py", "scene.reference", "kind"),
