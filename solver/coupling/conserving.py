@@ -83,7 +83,8 @@ def interface(scene, mdl):
                          f"'{parts[c].name}' share no element (no interface)")
     if getattr(mdl, "heat", None) is not None:
         raise SceneError("heat: coupling.scheme conserving couples linear partitions without heat")
-    if getattr(mdl, "bond_geometry", "linear") != "linear":
+    from solver.laws import BOND_GEOMETRIES
+    if BOND_GEOMETRIES[getattr(mdl, "bond_geometry", "linear")].current:
         raise SceneError("model.lattice: coupling.scheme conserving needs linear partitions")
     return f, c, iface
 

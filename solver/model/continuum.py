@@ -15,6 +15,7 @@ from functools import cached_property
 
 import numpy as np
 
+from solver.laws import CONTACT_LAWS, ContactSettings
 from solver.model import data as model_data
 from solver.partitions.assembly import group_matrices, kept, nodal
 from solver.model.loads import load_function
@@ -40,7 +41,7 @@ class ContinuumArrays:
     material_D: np.ndarray = None  # elasticity matrix (Voigt), for stresses
     bond_geometry: str = "linear"  # lattice bonds: linear (small strain) or nonlinear
     break_strain: float = None     # lattice bonds break beyond this strain (nonlinear)
-    contact: object = None         # solver.laws.ContactSettings (contact_of), or None
+    contact: ContactSettings | None = None  # model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
     inertia: np.ndarray = None     # [n_nodes] rotary inertia of shell nodes (DOFs 3-5), or None
     notes: tuple = ()              # what reading the mesh changed (solver.model.mesh), logged
@@ -326,7 +327,6 @@ def _with_heat(arrays, scene, mesh, particles=None):
 def contact_of(lat):
     """The :class:`solver.laws.ContactSettings` of ``model.lattice.contact``
     (its law object built from the registry), defaults filled, or None."""
-    from solver.laws import CONTACT_LAWS, ContactSettings
     c = lat.contact
     if c is None:
         return None

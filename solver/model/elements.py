@@ -7,6 +7,12 @@ One isoparametric path serves the four families:
     tet4   linear tetrahedron, 1-point rule
     hex8   trilinear hexahedron, 2x2x2 Gauss
 
+Each family is one declared :class:`Family` object (its gmsh type, meshio and
+XDMF names, facet family, simplex flag, quadrature, lumping rule, ...),
+registered in ``CELLS`` (every cell family a mesh holds, with ``by_gmsh`` and
+``by_meshio``) and, for the four body families, in ``FAMILIES``; code asks the
+family for these facts instead of keeping tables of family names.
+
 Node orderings are gmsh's.  Element DOFs are node-major ([u_x, u_y(, u_z)] per
 node), matching the global numbering ``node * dim + component`` (block size
 = dim).  ``stiffness`` returns K_e [n_el, nd, nd]; ``lumped_mass`` returns the

@@ -450,7 +450,8 @@ class Scene:
                 fail("coupling.scheme", "conserving couples linear partitions without heat; "
                      "this scene has heat (use overlap or staggered)")
             lat = getattr(self.model, "lattice", None)
-            if lat is not None and lat.geometry != "linear":
+            from solver.laws import BOND_GEOMETRIES
+            if lat is not None and BOND_GEOMETRIES[lat.geometry].current:
                 fail("coupling.scheme", f"conserving couples linear partitions; "
                      f"model.lattice.geometry is {lat.geometry} (use linear, or staggered)")
 
