@@ -134,9 +134,10 @@ class Families(Mapping):
     def register(self, family: Family) -> Family:
         for other in self._named.values():
             for fact in ("name", "gmsh", "meshio"):
-                if getattr(family, fact) is not None and getattr(other, fact) == getattr(family, fact):
-                    raise ValueError(f"element family {family.name}: {fact} "
-                                     f"{getattr(family, fact)!r} is already {other.name}'s")
+                value = getattr(family, fact)
+                if value is not None and getattr(other, fact) == value:
+                    raise ValueError(f"element family {family.name}: {fact} {value!r} is "
+                                     f"already {other.name}'s")
         self._named[family.name] = family
         return family
 
