@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.laws import BOND_GEOMETRIES
 from solver.partitions.force import LinearForce
 from solver.partitions.partition import Partition
 
@@ -41,7 +42,6 @@ class DemPartition(Partition):
                       f"{', '.join(self.fields)}",
                       f"bond operator {B.getSize()[0]}x{B.getSize()[0]} (type {B.getType()}, "
                       f"block size {B.getBlockSize()})"]
-        from solver.laws import BOND_GEOMETRIES
         if not BOND_GEOMETRIES[getattr(model, "bond_geometry", "linear")].current:
             return LinearForce(B, blocks)
         return self._nonlinear(model, blocks, B)
