@@ -323,13 +323,14 @@ def test_contact_laws_and_the_dashpot_on_two_particles(law):
     the spring force is k d (linear) or k d^1.5 (hertz) with energy 1/2 k d^2 or
     2/5 k d^2.5, the dashpot adds 2 zeta sqrt(k_t m*) w (k_t the tangent) and
     dissipates c w^2; both act along the line of centres, equal and opposite."""
+    from solver.laws import CONTACT_LAWS, ContactSettings
     from solver.partitions.contact import Contact
     r, k, zeta, d, w = 1e-3, 2e7, 0.3, 1e-5, 0.4
     m = np.array([2e-6, 6e-6])
     unit = np.array([0.6, 0.8])
     x = np.array([[0.0, 0.0], (2 * r - d) * unit])
-    c = Contact(np.arange(2), (r, k, 0.3 * r, law, zeta, 0.0, 0.5), np.zeros(0, np.int64),
-                np.zeros(0, np.int64), m)
+    settings = ContactSettings(CONTACT_LAWS[law](k), r, 0.3 * r, zeta, 0.0, 0.5)
+    c = Contact(np.arange(2), settings, np.zeros(0, np.int64), np.zeros(0, np.int64), m)
     out = np.zeros((2, 2))
     c.forces(x, np.zeros(0, bool), out, 2)
     f, kt, energy = ((k * d, k, 0.5 * k * d ** 2) if law == "linear" else
@@ -350,13 +351,14 @@ def test_friction_opposes_sliding_up_to_the_coulomb_limit(speed, limited):
     other at speed w: the tangential force opposes the sliding with magnitude
     c_t w while below mu k d, and mu k d beyond it; its power is f_t w; no
     normal component; equal and opposite."""
+    from solver.laws import CONTACT_LAWS, ContactSettings
     from solver.partitions.contact import Contact
     r, k, d, mu, zt = 1e-3, 2e7, 1e-5, 0.3, 0.5
     m = np.array([2e-6, 6e-6])
     unit, tang = np.array([0.6, 0.8]), np.array([-0.8, 0.6])
     x = np.array([[0.0, 0.0], (2 * r - d) * unit])
-    c = Contact(np.arange(2), (r, k, 0.3 * r, "linear", 0.0, mu, zt), np.zeros(0, np.int64),
-                np.zeros(0, np.int64), m)
+    settings = ContactSettings(CONTACT_LAWS["linear"](k), r, 0.3 * r, 0.0, mu, zt)
+    c = Contact(np.arange(2), settings, np.zeros(0, np.int64), np.zeros(0, np.int64), m)
     c.forces(x, np.zeros(0, bool), np.zeros((2, 2)), 2)
     out = np.zeros((2, 2))
     power = c.viscous(np.array([[0.0, 0.0], speed * tang]), out, 2)

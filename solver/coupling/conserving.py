@@ -85,7 +85,8 @@ def interface(scene, mdl):
                          f"'{parts[c].name}' share no element (no interface)")
     if mdl.heat is not None:
         raise SceneError("heat: coupling.scheme conserving couples linear partitions without heat")
-    if mdl.lattice is not None and mdl.lattice.geometry != "linear":
+    from solver.laws import BOND_GEOMETRIES
+    if mdl.lattice is not None and BOND_GEOMETRIES[mdl.lattice.geometry].current:
         raise SceneError("model.lattice: coupling.scheme conserving needs linear partitions")
     return f, c, iface
 
@@ -146,7 +147,8 @@ class Conserving(OwnSides):
             fail("coupling.scheme", "conserving couples linear partitions without heat; "
                  "this scene has heat (use overlap or staggered)")
         lat = getattr(scene.model, "lattice", None)
-        if lat is not None and lat.geometry != "linear":
+        from solver.laws import BOND_GEOMETRIES
+        if lat is not None and BOND_GEOMETRIES[lat.geometry].current:
             fail("coupling.scheme", f"conserving couples linear partitions; "
                  f"model.lattice.geometry is {lat.geometry} (use linear, or staggered)")
         coarse, other = two_sides(scene, cls.name)

@@ -38,10 +38,6 @@ def _open(xdmf: str):
         return TimeSeriesWriter(xdmf).__enter__()
 
 
-MESHIO_CELLS = {"tri3": "triangle", "quad4": "quad", "tet4": "tetra", "hex8": "hexahedron",
-                "shell3": "triangle"}
-
-
 def tensor6(voigt: np.ndarray, kind: str, nu: float) -> np.ndarray:
     """Stress in our Voigt order (3D xx, yy, zz, yz, xz, xy; 2D xx, yy, xy) as
     XDMF Tensor6 (xx, xy, xz, yy, yz, zz)."""
@@ -81,12 +77,12 @@ class FieldWriter:
         blocks = [(fam, conn) for fam, conn, _ in mdl.cells]
         if mdl.zone is not None:
             blocks += [(FAMILIES[name], conn) for name, conn in mdl.zone.band_cells.items()]
-        self.cells = [(MESHIO_CELLS[fam.name], conn) for fam, conn in blocks
-                      if fam.name in MESHIO_CELLS]
+        self.cells = [(fam.meshio, conn) for fam, conn in blocks       # each family's
+                      if fam.meshio is not None]                        # meshio cell name
         # shells: membrane forces, moments and the faces' von Mises stress per
         # triangle (NaN on the solid cells of a model with both)
-        self.shell_blocks = [Ke.material if fam.name == "shell3" else None
-                             for fam, _, Ke in mdl.cells if fam.name in MESHIO_CELLS] \
+        self.shell_blocks = [Ke.material if fam.rotations else None
+                             for fam, _, Ke in mdl.cells if fam.meshio is not None] \
             if self.shell else []
         self.stress_ops = []
         material = scene.model.material

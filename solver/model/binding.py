@@ -14,6 +14,8 @@ import dataclasses
 import numpy as np
 
 from solver.model import data as model_data
+from solver.model.elements import FAMILIES
+from solver.model.shell_model import SHELL3
 from solver.scene.model_spec import DOF_NAMES
 from solver.scene.schema import fail, shown
 
@@ -66,7 +68,7 @@ def bind(scene):
     return dataclasses.replace(scene, partitions=parts, probes=tuple(probes), loads=tuple(loads))
 
 
-FACETS = ("line2", "tri3", "quad4")
+FACETS = FAMILIES.facets()          # the cells that carry tractions: edges and faces
 
 
 def _traction(ld, path, mesh, space):
@@ -155,7 +157,7 @@ def _check_free(scene, data, owned, d):
     if spec.shells:                                  # solid-only nodes never rotate
         on_shell = np.zeros(n_mesh, bool)
         for part in spec.shells:
-            on_shell[data.group(part.group).cells["tri3"]] = True
+            on_shell[data.group(part.group).cells[SHELL3.mesh_cells]] = True
         held[~on_shell, 3:] = True
     free = ~held.all(axis=1)
     for p, nodes in enumerate(owned):
@@ -191,8 +193,8 @@ def _owned_nodes(scene, data, n, zone=None) -> list[tuple[int, ...]]:
     owner = np.full(n, -1, dtype=np.int64)
     continuum = scene.model.kind == "continuum"
     used = _used(data, data.group(scene.model.body, "model.body"), zone, n,
-                 [data.group(p.group).cells["tri3"] for p in scene.model.shells]) if continuum else \
-        np.ones(n, bool)
+                 [data.group(p.group).cells[SHELL3.mesh_cells] for p in scene.model.shells]) \
+        if continuum else np.ones(n, bool)
     out = []
     for p, part in enumerate(scene.partitions):
         if zone is not None and part.method == "dem":
@@ -241,7 +243,7 @@ def snap(spec, mesh, at, key, zone=None) -> int:
         fail(key, f"{list(at)}: a point of the {dim}D mesh needs {dim} coordinates")
     body = list(mesh.group(spec.body, "model.body").cells.values() if zone is None else
                 zone.fe_cells.values())
-    body += [mesh.group(p.group).cells["tri3"] for p in spec.shells]
+    body += [mesh.group(p.group).cells[SHELL3.mesh_cells] for p in spec.shells]
     nodes = np.unique(np.concatenate([c.ravel() for c in body])) if body else np.zeros(0, int)
     p = np.asarray(at[:dim], dtype=float)
     if zone is not None:

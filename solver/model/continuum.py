@@ -16,6 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from solver.laws import CONTACT_LAWS, ContactSettings
 from solver.model import data as model_data
 from solver.partitions.assembly import group_matrices, kept, nodal
 from solver.model.loads import load_function
@@ -42,7 +43,7 @@ class ContinuumArrays:
     notes: tuple = ()              # what reading the mesh changed (solver.model.mesh), logged
     shells: Shells | None = None   # shell surfaces (rotary inertia), or None
     lattice: Lattice | None = None  # lattice bonds, overlap and carried cells, bond law, or None
-    contact: tuple = None          # settings of model.lattice.contact (contact_of), or None
+    contact: ContactSettings | None = None        # settings of model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
     zone: object = None            # the Transition (model.lattice.transition), else None
 
@@ -170,23 +171,24 @@ def facet_weights(fam, X) -> np.ndarray | None:
     (length/2, area/3); a quad4 face is integrated with 3x3 Gauss points over
     its bilinear map, |dx/dxi x dx/deta| N_a (exact on a plane face, whatever its
     shape: a trapezoid's nodes do not get area/4 each; close on a warped one)."""
-    if fam == "line2":
+    from solver.model.elements import CELLS
+    family = CELLS.get(fam)
+    if family is None or family.dim not in (1, 2):
+        return None
+    if family.dim == 1:
         return np.repeat(0.5 * np.linalg.norm(X[:, 1] - X[:, 0], axis=1)[:, None], 2, axis=1)
-    if fam == "tri3":
+    if family.simplex:
         e1, e2 = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
         cross = np.cross(e1, e2) if X.shape[2] == 3 else e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
         area = 0.5 * (np.linalg.norm(cross, axis=1) if X.shape[2] == 3 else np.abs(cross))
         return np.repeat(area[:, None] / 3, 3, axis=1)
-    if fam == "quad4":
-        from solver.model.elements import FAMILIES
-        N, dN = FAMILIES["quad4"].shape(GAUSS3)                 # [q, a], [q, a, 2]
-        T = np.einsum("qai,eaj->eqij", dN, X)                    # tangents dx/dxi_i [e, q, i, x]
-        if X.shape[2] == 3:
-            dA = np.linalg.norm(np.cross(T[:, :, 0], T[:, :, 1]), axis=2)
-        else:
-            dA = np.abs(np.linalg.det(T))
-        return np.einsum("eq,q,qa->ea", dA, GAUSS3_W, N)
-    return None
+    N, dN = family.shape(GAUSS3)                                 # [q, a], [q, a, 2]
+    T = np.einsum("qai,eaj->eqij", dN, X)                        # tangents dx/dxi_i [e, q, i, x]
+    if X.shape[2] == 3:
+        dA = np.linalg.norm(np.cross(T[:, :, 0], T[:, :, 1]), axis=2)
+    else:
+        dA = np.abs(np.linalg.det(T))
+    return np.einsum("eq,q,qa->ea", dA, GAUSS3_W, N)
 
 
 def facet_forces(mesh, group_name, where):
@@ -334,14 +336,16 @@ def _with_heat(arrays, scene, mesh, particles=None):
 
 
 def contact_of(lat):
-    """(radius, stiffness, skin, law, damping ratio, friction, tangential damping
-    ratio) of ``model.lattice.contact``, defaults filled, or None."""
+    """The :class:`solver.laws.ContactSettings` of ``model.lattice.contact``
+    (its law object built from the registry), defaults filled, or None."""
     c = lat.contact
     if c is None:
         return None
     radius = c.radius if c.radius is not None else 0.5 * lat.spacing
-    return (radius, c.stiffness, c.skin if c.skin is not None else 0.3 * radius, c.law,
-            c.damping_ratio, c.friction, c.tangential_damping_ratio)
+    return ContactSettings(law=CONTACT_LAWS[c.law](c.stiffness), radius=radius,
+                           skin=c.skin if c.skin is not None else 0.3 * radius,
+                           damping_ratio=c.damping_ratio, friction=c.friction,
+                           tangential_damping_ratio=c.tangential_damping_ratio)
 
 
 def fixed_dofs(scene, mesh, n_nodes, dof):

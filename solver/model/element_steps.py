@@ -68,8 +68,9 @@ def total_mass(mdl) -> float:
     return float(np.sum(mdl.mass))
 
 
-def _length(family: str, X: np.ndarray) -> np.ndarray:
-    """Characteristic lengths [e] of cells with corner coordinates X [e, a, d]."""
+def _length(family, X: np.ndarray) -> np.ndarray:
+    """Characteristic lengths [e] of cells of ``family`` (asked its dimension and
+    simplex flag) with corner coordinates X [e, a, d]; None for other cells."""
     def norm(v):
         return np.linalg.norm(v, axis=-1)
 
@@ -77,22 +78,23 @@ def _length(family: str, X: np.ndarray) -> np.ndarray:
         if a.shape[-1] == 2:
             return 0.5 * np.abs(a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0])
         return 0.5 * norm(np.cross(a, b))
-    if family in ("tri3", "shell3"):
+    shape = (family.dim, family.simplex, family.n_nodes)
+    if shape == (2, True, 3):                         # triangles (tri3, shell3)
         edges = np.stack([norm(X[:, 1] - X[:, 0]), norm(X[:, 2] - X[:, 1]),
                           norm(X[:, 0] - X[:, 2])], axis=1)
         return 2 * area(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]) / edges.max(axis=1)
-    if family == "quad4":
+    if shape == (2, False, 4):                        # quadrilaterals
         d1, d2 = X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]
         sides = np.stack([norm(X[:, (i + 1) % 4] - X[:, i]) for i in range(4)], axis=1)
         return area(d1, d2) / sides.max(axis=1)
-    if family == "tet4":
+    if shape == (3, True, 4):                         # tetrahedra
         vol = np.abs(np.einsum("ei,ei->e", X[:, 1] - X[:, 0],
                                np.cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]))) / 6
         faces = [(1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)]
         big = np.max(np.stack([area(X[:, b] - X[:, a], X[:, c] - X[:, a]) for a, b, c in faces],
                               axis=1), axis=1)
         return 3 * vol / big
-    if family == "hex8":
+    if shape == (3, False, 8):                        # hexahedra
         # volume from the Jacobian at the centre (exact for parallelepipeds), faces
         # as half the cross product of their diagonals (gmsh's node order)
         a = 0.25 * ((X[:, 1] + X[:, 2] + X[:, 5] + X[:, 6]) - (X[:, 0] + X[:, 3] + X[:, 4] + X[:, 7]))
@@ -106,16 +108,17 @@ def _length(family: str, X: np.ndarray) -> np.ndarray:
     return None
 
 
-def _family(Ke) -> str | None:
-    """The cell family of a block set's stiffness (mesh cells, shells, solid
+def _family(Ke):
+    """The cell Family of a block set's stiffness (mesh cells, shells, solid
     cells padded to 6 DOFs), or None for other elements (bonds, ties)."""
     kind = type(Ke).__name__
     if kind == "Padded":                             # shells on solids: the solid cells
         Ke, kind = Ke.Ke, type(Ke.Ke).__name__
     if kind == "ShellStiffness":
-        return "shell3"
+        from solver.model.shell_model import SHELL3
+        return SHELL3
     if kind == "CellStiffness":
-        return Ke.family.name
+        return Ke.family
     return None
 
 
@@ -162,8 +165,8 @@ def element_steps(scene, mdl, blocks, keep=None):
                 continue
             L = np.concatenate([_length(fam, points[rows[s:s + CHUNK]])
                                 for s in range(0, len(rows), CHUNK)] or [np.zeros(0)])
-            steps.append(L / (plate if fam == "shell3" else c))
-            kinds.append(fam)
+            steps.append(L / (plate if fam.rotations else c))
+            kinds.append(fam.name)
         elif type(Ke).__name__ == "BondStiffness":
             steps.append(_spring_steps(rows, np.asarray(Ke.k)[mask], mass))
             kinds.append("bond")

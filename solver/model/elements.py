@@ -7,6 +7,12 @@ One isoparametric path serves the four families:
     tet4   linear tetrahedron, 1-point rule
     hex8   trilinear hexahedron, 2x2x2 Gauss
 
+Each family is one declared :class:`Family` object (its gmsh type, meshio and
+XDMF names, facet family, simplex flag, quadrature, lumping rule, ...),
+registered in ``CELLS`` (every cell family a mesh holds, with ``by_gmsh`` and
+``by_meshio``) and, for the four body families, in ``FAMILIES``; code asks the
+family for these facts instead of keeping tables of family names.
+
 Node orderings are gmsh's.  Element DOFs are node-major ([u_x, u_y(, u_z)] per
 node), matching the global numbering ``node * dim + component`` (block size
 = dim).  ``stiffness`` returns K_e [n_el, nd, nd]; ``lumped_mass`` returns the
@@ -19,6 +25,7 @@ points are fine.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,15 +35,55 @@ G = 1.0 / np.sqrt(3.0)
 
 @dataclass(frozen=True)
 class Family:
+    """An element family and every fact the code asks of it (one object per
+    family, registered in :data:`CELLS`; the body families also in :data:`FAMILIES`).
+
+    ``basis(xi)`` gives N and dN/dxi; ``points``/``weights`` the quadrature;
+    ``gmsh``/``meshio``/``xdmf`` the type number and names of the formats;
+    ``facet`` the family of its boundary cells; ``simplex``: the reference cell
+    is the unit simplex (xi >= 0, sum xi <= 1; the Jacobian is constant);
+    ``centre`` the reference centroid; ``corners`` the reference corner
+    coordinates where the Jacobian is checked (None: simplices); ``mirror``
+    the node order that reverses a cell's orientation; ``lumping``:
+    ``row_sum`` (rho * integral N_a, the consistent mass's row sums) or
+    ``row_sum_rotary`` (with a rotary inertia per node, shells);
+    ``rotations``: its nodes carry rotations (shells: the plate wave bounds
+    its step); ``body``: it has the stiffness and mass kernels, so it fills a
+    body; ``mesh_cells``: the mesh family its cells are read as."""
+
     name: str
     dim: int
     n_nodes: int
     points: np.ndarray       # quadrature points [n_q, dim]
     weights: np.ndarray      # [n_q]
+    basis: object = None     # xi [n, dim] -> (N [n, n_nodes], dN/dxi [n, n_nodes, dim])
+    gmsh: int | None = None
+    meshio: str | None = None
+    xdmf: str | None = None
+    facet: str | None = None
+    simplex: bool = False
+    centre: tuple = ()
+    corners: np.ndarray | None = None
+    mirror: tuple | None = None
+    lumping: str | None = None
+    rotations: bool = False
+    body: bool = False
+    mesh_cells: str | None = None
 
     def shape(self, xi):
         """N [n_q, n_nodes] and dN/dxi [n_q, n_nodes, dim] at points ``xi``."""
-        return SHAPES[self.name](np.asarray(xi, dtype=float))
+        return self.basis(np.asarray(xi, dtype=float))
+
+
+def _point(xi):
+    return np.ones((len(xi), 1)), np.zeros((len(xi), 1, 0))
+
+
+def _line2(xi):
+    x = xi[:, 0]
+    N = np.stack([0.5 * (1 - x), 0.5 * (1 + x)], axis=1)
+    dN = np.broadcast_to(np.array([[-0.5], [0.5]]), (len(xi), 2, 1))
+    return N, dN
 
 
 def _tri3(xi):
@@ -58,27 +105,98 @@ HEX_NODES = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
                       [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
 
 
-def _tensor(nodes):
-    def shape(xi):
-        f = 1 + xi[:, None, :] * nodes[None, :, :]           # [n_q, n_nodes, dim]
-        scale = 0.5 ** nodes.shape[1]
-        N = scale * np.prod(f, axis=2)
-        dN = np.empty_like(f)
-        for d in range(nodes.shape[1]):
-            others = np.prod(np.delete(f, d, axis=2), axis=2)
-            dN[:, :, d] = scale * nodes[None, :, d] * others
-        return N, dN
-    return shape
+def _tensor(nodes, xi):
+    f = 1 + xi[:, None, :] * nodes[None, :, :]           # [n_q, n_nodes, dim]
+    scale = 0.5 ** nodes.shape[1]
+    N = scale * np.prod(f, axis=2)
+    dN = np.empty_like(f)
+    for d in range(nodes.shape[1]):
+        others = np.prod(np.delete(f, d, axis=2), axis=2)
+        dN[:, :, d] = scale * nodes[None, :, d] * others
+    return N, dN
 
 
-SHAPES = {"tri3": _tri3, "tet4": _tet4, "quad4": _tensor(QUAD_NODES), "hex8": _tensor(HEX_NODES)}
-FAMILIES = {
-    "tri3": Family("tri3", 2, 3, np.array([[1 / 3, 1 / 3]]), np.array([0.5])),
-    "quad4": Family("quad4", 2, 4, np.array([[a, b] for b in (-G, G) for a in (-G, G)]), np.ones(4)),
-    "tet4": Family("tet4", 3, 4, np.array([[0.25, 0.25, 0.25]]), np.array([1 / 6])),
-    "hex8": Family("hex8", 3, 8, np.array([[a, b, c] for c in (-G, G) for b in (-G, G)
-                                           for a in (-G, G)]), np.ones(8)),
-}
+def _quad4(xi):
+    return _tensor(QUAD_NODES, xi)
+
+
+def _hex8(xi):
+    return _tensor(HEX_NODES, xi)
+
+
+class Families(Mapping):
+    """A registry of element families: name -> Family, and the same families
+    by gmsh type number (``by_gmsh``) and by meshio cell name (``by_meshio``)."""
+
+    def __init__(self):
+        self._named = {}
+
+    def register(self, family: Family) -> Family:
+        for other in self._named.values():
+            for fact in ("name", "gmsh", "meshio"):
+                value = getattr(family, fact)
+                if value is not None and getattr(other, fact) == value:
+                    raise ValueError(f"element family {family.name}: {fact} {value!r} is "
+                                     f"already {other.name}'s")
+        self._named[family.name] = family
+        return family
+
+    def __getitem__(self, name) -> Family:
+        return self._named[name]
+
+    def __iter__(self):
+        return iter(self._named)
+
+    def __len__(self) -> int:
+        return len(self._named)
+
+    @property
+    def by_gmsh(self) -> dict:
+        return {f.gmsh: f for f in self._named.values() if f.gmsh is not None}
+
+    @property
+    def by_meshio(self) -> dict:
+        return {f.meshio: f for f in self._named.values() if f.meshio is not None}
+
+    def facets(self) -> tuple:
+        """The names of the families that bound these (edges and faces)."""
+        return tuple(dict.fromkeys(f.facet for f in self._named.values() if f.facet))
+
+
+CELLS = Families()           # every cell family a mesh may hold
+FAMILIES = Families()        # the body families (element kernels): tri3, quad4, tet4, hex8
+
+
+def register(family: Family) -> Family:
+    """Declare ``family``: in CELLS, and in FAMILIES when it fills a body."""
+    CELLS.register(family)
+    if family.body:
+        FAMILIES.register(family)
+    return family
+
+
+POINT = register(Family("point", 0, 1, np.zeros((1, 0)), np.ones(1), _point, gmsh=15,
+                        meshio="vertex", xdmf="Polyvertex", simplex=True, mesh_cells="point"))
+LINE2 = register(Family("line2", 1, 2, np.array([[-G], [G]]), np.ones(2), _line2, gmsh=1,
+                        meshio="line", xdmf="Polyline", facet="point", centre=(0.0,),
+                        mesh_cells="line2"))
+TRI3 = register(Family("tri3", 2, 3, np.array([[1 / 3, 1 / 3]]), np.array([0.5]), _tri3, gmsh=2,
+                       meshio="triangle", xdmf="Triangle", facet="line2", simplex=True,
+                       centre=(1 / 3, 1 / 3), mirror=(0, 2, 1), lumping="row_sum", body=True,
+                       mesh_cells="tri3"))
+QUAD4 = register(Family("quad4", 2, 4, np.array([[a, b] for b in (-G, G) for a in (-G, G)]),
+                        np.ones(4), _quad4, gmsh=3, meshio="quad", xdmf="Quadrilateral",
+                        facet="line2", centre=(0.0, 0.0), corners=QUAD_NODES,
+                        mirror=(0, 3, 2, 1), lumping="row_sum", body=True, mesh_cells="quad4"))
+TET4 = register(Family("tet4", 3, 4, np.array([[0.25, 0.25, 0.25]]), np.array([1 / 6]), _tet4,
+                       gmsh=4, meshio="tetra", xdmf="Tetrahedron", facet="tri3", simplex=True,
+                       centre=(0.25, 0.25, 0.25), mirror=(0, 2, 1, 3), lumping="row_sum",
+                       body=True, mesh_cells="tet4"))
+HEX8 = register(Family("hex8", 3, 8, np.array([[a, b, c] for c in (-G, G) for b in (-G, G)
+                                               for a in (-G, G)]), np.ones(8), _hex8, gmsh=5,
+                       meshio="hexahedron", xdmf="Hexahedron", facet="quad4", centre=(0.0,) * 3,
+                       corners=HEX_NODES, mirror=(0, 3, 2, 1, 4, 7, 6, 5), lumping="row_sum",
+                       body=True, mesh_cells="hex8"))
 
 
 @dataclass(frozen=True)
@@ -132,15 +250,12 @@ class BadElement(ValueError):
         self.corner = corner
 
 
-CORNERS = {"quad4": QUAD_NODES, "hex8": HEX_NODES}
-
-
 def check_corners(family: Family, X: np.ndarray):
     """Refuse (BadElement) a cell whose Jacobian determinant is negative at a
     corner (a non-convex quad4 or hex8: positive at the Gauss points, inside
     out near the reflex corner).  Beyond rounding only: a straight angle or a
     collapsed corner (determinant 0) is left to the Gauss-point check."""
-    nodes = CORNERS.get(family.name)
+    nodes = family.corners
     if nodes is None or not len(X):             # simplices: the Jacobian is constant
         return
     _, dN = family.shape(nodes)

@@ -58,7 +58,7 @@ class Embedding:
 
 def inside(family: str, xi: np.ndarray, tol: float = INSIDE_TOL) -> np.ndarray:
     """Whether local coordinates ``xi`` [n, dim] lie in the reference cell."""
-    if family in ("tri3", "tet4"):
+    if FAMILIES[family].simplex:
         return np.all(xi >= -tol, axis=1) & (xi.sum(axis=1) <= 1 + tol)
     return np.all(np.abs(xi) <= 1 + tol, axis=1)
 
@@ -67,7 +67,7 @@ def local_coordinates(family: str, X: np.ndarray, x: np.ndarray) -> np.ndarray:
     """xi [n, dim] with sum_i N_i(xi) X[:, i] = x for cells X [n, k, dim]."""
     fam = FAMILIES[family]
     dim = fam.dim
-    xi = np.zeros((len(x), dim)) if family in ("quad4", "hex8") else np.full((len(x), dim), 0.25)
+    xi = np.full((len(x), dim), 0.25) if fam.simplex else np.zeros((len(x), dim))
     for _ in range(NEWTON_STEPS):
         N, dN = fam.shape(xi)
         r = np.einsum("nk,nkd->nd", N, X) - x

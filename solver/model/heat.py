@@ -132,7 +132,8 @@ def build(scene, mesh, particles=None, n_model=None) -> Conduction:
     from scipy.sparse.linalg import eigsh
     spec, model = scene.heat, scene.model
     body = mesh.group(model.body, "model.body")
-    cells = {f: c for f, c in body.cells.items() if f in ("tri3", "quad4", "tet4", "hex8")}
+    from solver.model.elements import FAMILIES
+    cells = {f: c for f, c in body.cells.items() if f in FAMILIES}        # the body families
     n = len(mesh.points)
     r, c, v, cap, src = _matrices(mesh, cells, spec, model.material.elastic())
     K = coo_matrix((v, (r, c)), shape=(n, n)).tocsr()

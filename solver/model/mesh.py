@@ -26,18 +26,14 @@ from pathlib import Path
 import numpy as np
 
 from solver.errors import SceneError
+from solver.model.elements import CELLS
 
-GMSH_TYPES = {1: ("line2", 1, 2), 2: ("tri3", 2, 3), 3: ("quad4", 2, 4), 4: ("tet4", 3, 4),
-              5: ("hex8", 3, 8), 15: ("point", 0, 1)}
 # names of the gmsh element types that are refused (gmsh's own name for the others)
 OTHER_TYPES = {6: "prism6", 7: "pyramid5", 8: "line3", 9: "tri6", 10: "quad9", 11: "tet10",
                12: "hex27", 13: "prism18", 14: "pyramid14", 16: "quad8", 17: "hex20",
                18: "prism15", 19: "pyramid13", 20: "tri9", 21: "tri10", 26: "line4",
                29: "tet20", 36: "quad16", 92: "hex64"}
 ORDER_WORDS = {2: "second-order", 3: "third-order", 4: "fourth-order", 5: "fifth-order"}
-# node orders that mirror a cell (its orientation reversed), per family
-MIRROR = {"tri3": [0, 2, 1], "quad4": [0, 3, 2, 1], "tet4": [0, 2, 1, 3],
-          "hex8": [0, 3, 2, 1, 4, 7, 6, 5]}
 
 
 @dataclass(frozen=True)
@@ -81,15 +77,12 @@ def _unsupported(path, name, t) -> SceneError:
     hint = "; mesh with Mesh.ElementOrder = 1" if order > 1 else ""
     return SceneError(f"{path}: group {name!r}: {what} elements are not supported (gmsh type "
                       f"{t}{hint}); supported: "
-                      f"{', '.join(sorted(v[0] for v in GMSH_TYPES.values()))}")
+                      f"{', '.join(sorted(f.name for f in CELLS.by_gmsh.values()))}")
 
 
-def _orientation(fam, X):
+def _orientation(family, X):
     """Jacobian determinant at the centre of each cell [n_el] (X [n_el, k, dim])."""
-    from solver.model.elements import FAMILIES
-    family = FAMILIES[fam]
-    centre = {"tri3": [1 / 3, 1 / 3], "tet4": [0.25] * 3}.get(fam, [0.0] * family.dim)
-    _, dN = family.shape(np.array([centre]))
+    _, dN = family.shape(np.array([family.centre]))
     return np.linalg.det(np.einsum("ai,eaj->eij", dN[0], X))
 
 
@@ -100,14 +93,15 @@ def _entity_cells(path, name, gdim, ent, index, xyz, top, flat, notes):
     out = {}
     types, el_tags, node_tags = gmsh.model.mesh.getElements(gdim, ent)
     for t, et, nt in zip(types, el_tags, node_tags):
-        if t not in GMSH_TYPES:
+        family = CELLS.by_gmsh.get(int(t))
+        if family is None:
             raise _unsupported(path, name, t)
-        fam, _, k = GMSH_TYPES[t]
-        conn = index[nt.astype(np.int64)].reshape(-1, k)
-        if flat and gdim == top and fam in MIRROR and len(conn):
-            det = _orientation(fam, xyz[conn][:, :, :top])
+        fam = family.name
+        conn = index[nt.astype(np.int64)].reshape(-1, family.n_nodes)
+        if flat and gdim == top and family.mirror is not None and len(conn):
+            det = _orientation(family, xyz[conn][:, :, :top])
             if np.all(det < 0):
-                conn = conn[:, MIRROR[fam]]
+                conn = conn[:, list(family.mirror)]
                 why = ("surface", "its curve loop runs clockwise") if top == 2 else \
                     ("volume", "every cell is inside out")
                 notes.append(f"{path}: {why[0]} {ent} ({len(conn)} {fam} cells) has negative "

@@ -18,10 +18,15 @@ import numpy as np
 
 from solver.errors import SceneError
 from solver.model import shell
-from solver.model.elements import Family
+from solver.model.elements import TRI3, Family
 from solver.model.interface import Shells
 
-SHELL3 = Family("shell3", 2, 3, np.array([[1 / 3, 1 / 3]]), np.array([0.5]))
+# the flat shell triangle: a tri3 of the mesh whose nodes also rotate; not a
+# mesh family of its own (its cells are read as tri3), so not registered
+SHELL3 = Family("shell3", 2, 3, TRI3.points, TRI3.weights, TRI3.basis, gmsh=TRI3.gmsh,
+                meshio=TRI3.meshio, xdmf=TRI3.xdmf, facet=TRI3.facet, simplex=True,
+                centre=TRI3.centre, mirror=TRI3.mirror, lumping="row_sum_rotary",
+                rotations=True, mesh_cells=TRI3.name)
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
 
 
@@ -46,13 +51,14 @@ class ShellStiffness:
 def triangles(mesh, name, where):
     """The tri3 connectivity of group ``name``; other cells refused."""
     group = mesh.group(name, where)
-    other = sorted(set(group.cells) - {"tri3"})
+    tri = SHELL3.mesh_cells
+    other = sorted(set(group.cells) - {tri})
     if other:
         raise SceneError(f"{where}: group {name!r} has {', '.join(other)} cells; shell elements "
                          "are 3-node triangles (mesh the surface with triangles)")
-    if "tri3" not in group.cells:
+    if tri not in group.cells:
         raise SceneError(f"{where}: group {name!r} has no triangles (a shell body is a surface)")
-    return group.cells["tri3"], group.cell_tags["tri3"]
+    return group.cells[tri], group.cell_tags[tri]
 
 
 def surface(mesh, group, where, material, wall):
@@ -64,7 +70,7 @@ def surface(mesh, group, where, material, wall):
         me = shell.lumped_mass(pts[conn], material.rho, wall.thickness, material.rotary_inertia)
     except shell.BadShell as e:
         raise SceneError(f"{where}: group {group!r}: gmsh element {int(tags[e.index])} "
-                         f"(tri3) {str(e).split(' is ', 1)[1]}") from None
+                         f"({SHELL3.mesh_cells}) {str(e).split(' is ', 1)[1]}") from None
     mass = np.bincount(conn.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
     inertia = np.bincount(conn.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
     return (SHELL3, conn, ShellStiffness(pts, conn, wall)), mass, inertia
@@ -151,8 +157,7 @@ class Tie:
 
 def centroid_gradients(family, X):
     """dN_a/dx at the element's centroid [e, k, 3] (solid families)."""
-    xi = np.full((1, family.dim), 0.25 if family.name == "tet4" else 0.0)
-    _, dN = family.shape(xi)
+    _, dN = family.shape(np.array([family.centre]))
     J = np.einsum("ai,eaj->eij", dN[0], X)
     return np.einsum("eij,aj->eai", np.linalg.inv(J), dN[0])
 

@@ -2,7 +2,8 @@
 
 Particles are spheres of radius r: two that are closer than 2r and share no
 live bond push each other apart along the line of centres n, with the
-overlap d = 2r - |x_j - x_i|:
+overlap d = 2r - |x_j - x_i|, with the force, tangent and energy of the
+settings' law (:data:`solver.laws.CONTACT_LAWS`):
 - law linear: f = k_n d (energy 1/2 k_n d^2);
 - law hertz:  f = k_h d^1.5 (energy 2/5 k_h d^2.5), tangent 1.5 k_h d^0.5;
 - a normal dashpot (``damping_ratio`` zeta) adds c v_approach, c = 2 zeta
@@ -22,7 +23,7 @@ the skin since the last build; the search and its arrays exist only in
 scenes with ``model.lattice.contact``.  The stable step accounts for contact
 springs with a bound: lambda_max(K_bonds + K_contact) <= lambda_bonds +
 2 z k / m_min, z the largest coordination of equal spheres (6 in 2D, 12 in
-3D), k the tangent stiffness (hertz: at an overlap of 0.1 r).
+3D), k the law's bound (hertz: its tangent at an overlap of 0.1 r).
 """
 from __future__ import annotations
 
@@ -34,23 +35,25 @@ def coordination(dim: int) -> int:
 
 
 def bound_stiffness(contact) -> float:
-    """The contact stiffness the step bound uses, from (radius, k, skin, law, zeta)."""
-    radius, k, law = contact[0], contact[1], contact[3]
-    return 1.5 * k * np.sqrt(0.1 * radius) if law == "hertz" else k
+    """The contact stiffness the step bound uses, from the ContactSettings."""
+    return contact.law.bound(contact.radius)
 
 
 class Contact:
     """Repulsive contact of the particles ``nodes`` (local indices into the
-    position array) with the settings ``(radius, stiffness, skin, law,
-    damping ratio)``; ``mass``: each position's particle mass (the dashpot).
+    position array) with the :class:`solver.laws.ContactSettings` ``settings``
+    (law, radius, skin, dashpot and friction); ``mass``: each position's
+    particle mass (the dashpot).
     Positions below ``owned`` are this piece's own particles: only pairs with
     one of them count here, their energy and dissipation half per owned end
     (a dem partition split over ranks sees every particle's position)."""
 
     def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None):
         self.nodes = np.asarray(nodes, dtype=np.int64)
-        (self.radius, self.kn, self.skin, self.law, self.zeta, self.mu,
-         self.zeta_t) = settings
+        self.law = settings.law
+        self.radius, self.skin = settings.radius, settings.skin
+        self.zeta, self.mu = settings.damping_ratio, settings.friction
+        self.zeta_t = settings.tangential_damping_ratio
         n = int(max(self.nodes.max(initial=0), bonded_i.max(initial=0), bonded_j.max(initial=0))) + 1
         self._n = n
         self.mass = mass
@@ -94,13 +97,6 @@ class Contact:
         touch = (overlap > 0) & ~bonded & (dist > 0)
         return i[touch], j[touch], d[touch], dist[touch], overlap[touch]
 
-    def _law(self, overlap):
-        """(force, tangent stiffness, energy) of each overlap."""
-        if self.law == "hertz":
-            root = np.sqrt(overlap)
-            return self.kn * overlap * root, 1.5 * self.kn * root, 0.4 * self.kn * overlap ** 2 * root
-        return self.kn * overlap, np.full(overlap.shape, self.kn), 0.5 * self.kn * overlap ** 2
-
     def _share(self, i, j):
         """Each pair's share here: half per owned end."""
         return 0.5 * ((i < self.owned).astype(float) + (j < self.owned).astype(float))
@@ -109,7 +105,7 @@ class Contact:
         """sum over the contacts of ``node`` of f_c r_c (its virial, sign of tension):
         a pushing contact has f = -f_n n on the particle and r = dist n."""
         _, _, d, dist, overlap = self._touching(x, alive, node)
-        f, _, _ = self._law(overlap)
+        f, _, _ = self.law.evaluate(overlap)
         return float(-np.sum((f / dist) * d[:, c] ** 2))
 
     def forces(self, x, alive, out, rows):
@@ -123,7 +119,7 @@ class Contact:
         if not i.size:
             self.energy, self._last = 0.0, None
             return
-        f, k, energy = self._law(overlap)
+        f, k, energy = self.law.evaluate(overlap)
         self.energy = float(np.dot(energy, self._share(i, j)))
         unit = d / dist[:, None]
         self._last = (i, j, unit, k, f)

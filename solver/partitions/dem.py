@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.laws import BOND_GEOMETRIES
 from solver.partitions.force import LinearForce
 from solver.partitions.partition import Partition
 
@@ -41,7 +42,7 @@ class DemPartition(Partition):
                       f"{', '.join(self.fields)}",
                       f"bond operator {B.getSize()[0]}x{B.getSize()[0]} (type {B.getType()}, "
                       f"block size {B.getBlockSize()})"]
-        if model.lattice is None or model.lattice.geometry == "linear":
+        if model.lattice is None or not BOND_GEOMETRIES[model.lattice.geometry].current:
             return LinearForce(B, blocks)
         return self._nonlinear(model, blocks, B)
 
@@ -63,12 +64,12 @@ class DemPartition(Partition):
         strain = (f", breaking beyond strain {model.lattice.break_strain:g}"
                   if model.lattice.break_strain is not None else "")
         if contact is not None:
-            radius, k, skin, law, zeta, mu, _ = contact
-            unit = "N/m^1.5" if law == "hertz" else "N/m"
+            law, zeta, mu = contact.law, contact.damping_ratio, contact.friction
             dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \
                 (f", friction {mu:g}" if mu else "")
-            strain += (f"; {law} contact of unbonded particles (radius {radius:g} m, stiffness "
-                       f"{k:g} {unit}{dash}, k-d tree with skin {skin:g} m)")
+            strain += (f"; {law.name} contact of unbonded particles (radius {contact.radius:g} m, "
+                       f"stiffness {law.stiffness:g} {law.unit}{dash}, k-d tree with skin "
+                       f"{contact.skin:g} m)")
         ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
         self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
                           f"{strain}{ghosts}")

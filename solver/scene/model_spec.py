@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 
+from solver.laws import BOND_GEOMETRIES, CONTACT_LAWS
 from solver.model import generators
 from solver.scene.schema import convert, fail, key, shown, tagged
 
@@ -182,14 +183,24 @@ class Constraint:
             fail(f"{path}.dofs", f"{list(self.dofs)}: each DOF is one of {', '.join(DOF_NAMES)}")
 
 
+def registered(registry):
+    """A ``parse`` hook: the value is a name of ``registry`` (solver.laws)."""
+    def parse_name(value, path):
+        if not isinstance(value, str) or value not in registry:
+            fail(path, f"{shown(value)} is not one of {', '.join(registry)}")
+        return value
+    return parse_name
+
+
 @dataclass(frozen=True)
 class ContactSpec:
     stiffness: float = key("normal contact stiffness of two touching particles: k_n [N/m] "
                            "(law linear, f = k_n d) or k_h [N/m^1.5] (law hertz, f = k_h d^1.5), "
                            "d the overlap", positive=True)
-    law: Literal["linear", "hertz"] = key(
+    law: str = key(
         "linear: spring k_n d; hertz: k_h d^1.5 (the step bound takes its tangent at an "
-        "overlap of 0.1 x radius)", "linear")
+        "overlap of 0.1 x radius)", "linear", parse=registered(CONTACT_LAWS),
+        choices_doc=CONTACT_LAWS.choices())
     damping_ratio: float = key(
         "normal dashpot c = 2 zeta sqrt(k m*) of each contact (zeta this ratio, k the "
         "contact's tangent stiffness, m* the pair's reduced mass): a spring-dashpot; its "
@@ -219,10 +230,11 @@ class LatticeSpec:
     E: float | None = key("Young's modulus of the lattice [Pa] when it differs from the model's "
                           "material (a stiffer or softer DEM region); default: model.material.E",
                           None, positive=True)
-    geometry: Literal["linear", "nonlinear"] = key(
+    geometry: str = key(
         "linear: bonds act on the small-strain displacement (one assembled operator); "
         "nonlinear: each bond pulls along its current direction with its current length "
-        "(large rotations exert no force), needed for break_strain", "linear")
+        "(large rotations exert no force), needed for break_strain", "linear",
+        parse=registered(BOND_GEOMETRIES), choices_doc=BOND_GEOMETRIES.choices())
     break_strain: float | None = key(
         "nonlinear bonds break for good when their strain (L - L0)/L0 exceeds this; the "
         "released energy and every break (time, place, strain) are recorded", None,
@@ -240,10 +252,10 @@ class LatticeSpec:
                                   "diagonals in 3D (nu = 1/4)", "square")
 
     def validate(self, path):
-        if self.contact is not None and self.geometry != "nonlinear":
+        if self.contact is not None and not BOND_GEOMETRIES[self.geometry].current:
             fail(f"{path}.contact", "needs geometry: nonlinear (contact follows the particles' "
                  "current positions)")
-        if self.break_strain is not None and self.geometry != "nonlinear":
+        if self.break_strain is not None and not BOND_GEOMETRIES[self.geometry].breakable:
             fail(f"{path}.break_strain", "needs geometry: nonlinear (a small-strain bond does not "
                  "know its current length)")
 
