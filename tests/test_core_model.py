@@ -133,8 +133,9 @@ def test_feature_contents(models):
 
     _, con = models["lattice_contact"]
     assert con.lattice.geometry == "nonlinear" and con.lattice.break_strain == 3e-4
-    radius, stiffness, skin, law, zeta, mu, _ = con.contact
-    assert (stiffness, law) == (1.68e7, "linear")
+    c = con.contact
+    radius, skin = c.radius, c.skin
+    assert (c.law.stiffness, c.law.name) == (1.68e7, "linear")
     assert radius == pytest.approx(0.5 * bound.model.lattice.spacing)
     assert skin == pytest.approx(0.3 * radius)
 
