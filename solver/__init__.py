@@ -12,7 +12,7 @@ import os as _os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
-__version__ = "0.2.0"
+from solver.version import __version__  # noqa: F401
 
 
 def load(path, overrides=()):

@@ -22,22 +22,7 @@ PACKAGE_STAGE = {"scene": 1, "model": 2, "partitions": 3, "coupling": 4, "driver
 TOP = 7                      # solver/__init__, solver/__main__
 
 # (importer, imported) edges that break a rule and have not been removed yet
-ALLOWED = {
-    ("solver.coupling.system_step", "solver.driver.stop"),
-    ("solver.driver.provenance", "solver"),
-    ("solver.model.continuum", "solver.partitions.assembly"),
-    ("solver.model.element_steps", "solver.coupling.overlap"),
-    ("solver.partitions.distribute", "solver.coupling.overlap"),
-    ("solver.partitions.partitioning", "solver.coupling.overlap"),
-    ("solver.partitions.partitioning", "solver.driver.stop"),
-    ("solver.scene.file", "solver.model.binding"),
-    ("solver.scene.model_spec", "solver.model.elements"),
-    ("solver.scene.model_spec", "solver.model.generators"),
-    # circles within a stage
-    ("solver.driver.output", "solver.driver.state"),
-    ("solver.model.continuum", "solver.model.shell_model"),
-    ("solver.model.arrays", "solver.model.continuum"),
-}
+ALLOWED: set = set()
 
 
 def module_name(path):

@@ -36,12 +36,12 @@ from __future__ import annotations
 import numpy as np
 
 from solver.collective import agree, on_root
-from solver.coupling.overlap import Layout
+from solver.model.layout import Layout
 from solver.coupling.system_step import _Clocks
 from solver.coupling.gc import OwnSides
 from solver.errors import LaunchError, SceneError, SolverError
 from solver.partitions import stability
-from solver.partitions.assembly import kept
+from solver.model.cell_blocks import kept
 from solver.partitions.dem import DemPartition
 from solver.partitions.fem import FemPartition
 from solver.petscutil import init

@@ -26,7 +26,7 @@ import numpy as np
 from solver.partitions import stability
 from solver.coupling.system_step import _Clocks
 from solver.partitions.fem import FemPartition
-from solver.coupling.overlap import Layout
+from solver.model.layout import Layout
 from solver.petscutil import init
 
 

@@ -75,7 +75,7 @@ class _Clocks:
     def failed(self, part, error):
         """Mark ``part`` failed: it stops stepping, the scheme goes on exchanging
         until the run stops on every rank (:mod:`solver.driver.stop`)."""
-        from solver.driver.stop import describe
+        from solver.errors import describe
         part.failed = True
         message = describe(error)
         if not message.startswith(f"partition '{part.name}'"):

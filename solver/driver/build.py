@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 from solver.model import arrays as model_mod
 from solver.collective import on_root
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.petscutil import init
 from solver.coupling.schemes import MAX_RANKS, scheme_class
 from solver.errors import LaunchError

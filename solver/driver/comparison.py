@@ -8,7 +8,7 @@ import numpy as np
 from solver.driver import reference
 from solver.errors import StabilityError
 from solver.model import arrays as model_mod
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.partitions.partitioning import check_stability
 
 

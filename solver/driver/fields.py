@@ -28,6 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
+from solver.model.elements import elastic
+
+
 def _open(xdmf: str):
     """A meshio TimeSeriesWriter whose .h5 sits beside ``xdmf`` (meshio opens it
     relative to the working directory, so enter it from the file's directory)."""
@@ -91,7 +94,7 @@ class FieldWriter:
         self.stress_ops = []
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu
-        D = self.D = material.elastic().D()
+        D = self.D = elastic(material).D()
         for fam, conn in ([] if self.shell else blocks):   # u_e -> cell-averaged stress
             _, dNdx, _ = _geometry(fam, mdl.points[conn])
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /

@@ -49,7 +49,7 @@ def history(scene, t_axis, log=None) -> dict:
     from mpi4py import MPI
 
     from solver.driver.monitor import Probes
-    from solver.coupling.overlap import owner_map
+    from solver.model.layout import owner_map
     from solver.driver.build import build
 
     ref = scene.reference

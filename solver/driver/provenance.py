@@ -26,7 +26,7 @@ def versions() -> str:
         out["MPI"] = MPI.Get_library_version().splitlines()[0].strip()
     except Exception:                           # noqa: BLE001
         pass
-    from solver import __version__
+    from solver.version import __version__
     out["solver"] = __version__
     return json.dumps(out, sort_keys=True)
 

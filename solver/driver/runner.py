@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.driver.build import build
 from solver.driver.comparison import add_reference, check_reference, reference_label
 from solver.errors import RunFailed, SceneError, StabilityError
@@ -167,7 +167,8 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     final = checkpoint.final(done, failure) if checkpoint else None
     asm.destroy()
     if rank == 0:
-        output.write(scene.output_file, result, checkpoint=final)
+        from solver.driver.state import group_writer
+        output.write(scene.output_file, result, checkpoint=group_writer(final))
     comm.barrier()
     from solver.driver.stop import Interrupted
     if failure:
@@ -197,7 +198,7 @@ class Checkpoint:
         result = self.report.result(k, "running", "", wall)
         if self.comm.rank == 0:
             self.last = (data, self.meta)
-            output.write(self.scene.output_file, result, checkpoint=self.last)
+            output.write(self.scene.output_file, result, checkpoint=state.group_writer(self.last))
 
     def final(self, done: int, failure):
         """What the final file keeps: the state at ``done`` (collective), or after
@@ -341,7 +342,7 @@ def step_loop(scene, scheme, probes, guard, say, comm, stop, fields=None, start=
 
     Returns (failure message or None, system steps done, stepping wall time,
     interrupted)."""
-    from solver.driver.stop import describe
+    from solver.errors import describe
     n_sys, Dt = scene.n_system_steps, scene.system_dt
     progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
     every = guard.every

@@ -116,6 +116,14 @@ def restore(data: dict, parts, scheme, guard):
     guard.restore(data["guard"])
 
 
+def group_writer(checkpoint):
+    """For :func:`solver.driver.output.write`: a function of the open file that writes
+    ``checkpoint`` = (data, meta) as /checkpoint, or None without one."""
+    if checkpoint is None:
+        return None
+    return lambda f: write_group(f, *checkpoint)
+
+
 def write_group(f, data: dict, meta: dict):
     """Write ``data`` (from :func:`collect`) as group /checkpoint of open h5py file ``f``."""
     from solver.driver.output import dataset

@@ -31,13 +31,6 @@ class Interrupted(RunFailed):
     exit_code = 130
 
 
-def describe(error: BaseException) -> str:
-    """One line for any exception raised while a partition steps."""
-    text = str(error).strip().splitlines()
-    line = text[-1] if text else type(error).__name__
-    return line if isinstance(error, RunFailed) else f"{type(error).__name__}: {line}"
-
-
 _setup = {"mpi": False, "pending": None}
 
 

@@ -15,17 +15,8 @@ import numpy as np
 
 from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
-from solver.model.loads import LoadFunction, load_function
+from solver.model.loads import PointLoad, load_function
 from solver.scene import Scene
-
-
-@dataclass(frozen=True)
-class PointLoad:
-    """A time function times ``scale`` applied to one DOF."""
-
-    dof: int
-    function: LoadFunction
-    scale: float = 1.0
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,10 @@
 """The scene bound to its model data: the checks that need the mesh or the
 network, and the resolved scene the later stages run.
 
+The scene stage parses and validates its own keys and reads no model data;
+:func:`load`, :func:`load_with_text` and :func:`from_dict` here parse and bind,
+for the entry points (:mod:`solver.tools.cli`, :mod:`solver.tools.api`).
+
 :func:`bind` reads the model data once (:mod:`solver.model.data`), checks
 every key that refers to it (physical groups, node ids, components, load
 directions, the material against the mesh's dimension, each node owned by
@@ -14,6 +18,7 @@ import dataclasses
 import numpy as np
 
 from solver.model import data as model_data
+from solver.scene import file as scene_file
 from solver.scene.model_spec import DOF_NAMES
 from solver.scene.schema import fail, shown
 
@@ -24,6 +29,21 @@ def dof(scene, data) -> int:
     if scene.model.kind != "continuum":
         return 1
     return 6 if scene.model.material.kind == "shell" or scene.model.shells else data.dim
+
+
+def from_dict(raw: dict):
+    """A scene from plain data, parsed (:func:`solver.scene.file.from_dict`) and bound."""
+    return bind(scene_file.from_dict(raw))
+
+
+def load(path, overrides=()):
+    """A scene file read with ``key.path=value`` overrides, parsed and bound."""
+    return load_with_text(path, overrides)[0]
+
+
+def load_with_text(path, overrides=()):
+    """(the bound scene, the effective scene as YAML); errors name the file."""
+    return scene_file.load_with_text(path, overrides, then=bind)
 
 
 def bind(scene):
@@ -148,7 +168,7 @@ def _check_wall(mesh, group, thickness, key):
 def _check_free(scene, data, owned, d):
     """Every partition has a DOF that moves: a partition whose every node has
     every DOF held (model.fixed, model.constraints) has nothing to step."""
-    from solver.model.continuum import fixed_dofs
+    from solver.model.boundary import fixed_dofs
     n_mesh = model_data.n_nodes(data)
     held = fixed_dofs(scene, data, n_mesh, d).reshape(n_mesh, d)
     spec = scene.model

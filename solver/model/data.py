@@ -54,7 +54,7 @@ def _network(spec):
         except (ValueError, OSError, KeyError) as e:
             raise SceneError(f"model.file: {e}") from None
     elif spec.generator is not None:
-        net, where = spec.generator.build(), ("model.generator",) * 2
+        net, where = generators.generate(spec.generator), ("model.generator",) * 2
     else:
         net = generators.Network(
             mass=np.asarray(spec.masses, dtype=float),

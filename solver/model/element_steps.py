@@ -217,7 +217,7 @@ def partition_lines(scene, mdl, owner) -> list[str]:
 
 def lines(scene, mdl) -> list[str]:
     """The set-up lines: total mass, materials, each partition's smallest steps."""
-    from solver.coupling import overlap
+    from solver.model import layout as overlap
     out = [f"model: total mass {total_mass(mdl):.6g} kg over {mdl.n_nodes} nodes"]
     mat = describe_materials(scene)
     if mat:

@@ -21,6 +21,7 @@ import numpy as np
 
 from solver.errors import SceneError
 from solver.model.embedding import Embedding, flat_cells, locate_in_cells
+from solver.model.elements import elastic
 
 
 @dataclass
@@ -134,7 +135,7 @@ def build(scene, mesh, particles=None, n_model=None) -> Conduction:
     body = mesh.group(model.body, "model.body")
     cells = {f: c for f, c in body.cells.items() if f in ("tri3", "quad4", "tet4", "hex8")}
     n = len(mesh.points)
-    r, c, v, cap, src = _matrices(mesh, cells, spec, model.material.elastic())
+    r, c, v, cap, src = _matrices(mesh, cells, spec, elastic(model.material))
     K = coo_matrix((v, (r, c)), shape=(n, n)).tocsr()
     K.sum_duplicates()
     used = cap > 0

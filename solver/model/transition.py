@@ -36,7 +36,7 @@ from solver.model.lattice import cubic, merge, square
 
 class RankOneBonds:
     """Stiffness k g g^T of bonds carried to nodes (``g`` [n_el, nd]); blocks
-    computed when asked, like :class:`solver.partitions.assembly.CellStiffness`."""
+    computed when asked, like :class:`solver.model.cell_blocks.CellStiffness`."""
 
     def __init__(self, conn, g, k, length):
         self.conn, self.g, self.k, self.length = conn, g, k, length

@@ -16,14 +16,14 @@ from __future__ import annotations
 
 def load(path, overrides=()):
     """A validated scene from a YAML file and ``key.path=value`` overrides."""
-    from solver import scene
-    return scene.load(path, list(overrides))
+    from solver.model import binding
+    return binding.load(path, list(overrides))
 
 
 def scene_from_dict(raw: dict):
     """A validated scene from plain data (the YAML's structure)."""
-    from solver import scene
-    return scene.from_dict(raw)
+    from solver.model import binding
+    return binding.from_dict(raw)
 
 
 def run(scene, comm=None, petsc_options=(), log=None, restart=None, overwrite=False):

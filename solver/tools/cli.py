@@ -140,7 +140,7 @@ def load_on_root(comm, path, overrides):
     """Rank 0 reads the scene and its mesh or network and binds them; the other
     ranks receive the bound scene (they never read the mesh)."""
     from solver.collective import on_root
-    from solver.scene.file import load_with_text
+    from solver.model.binding import load_with_text
     return on_root(comm, load_with_text, path, overrides)
 
 
@@ -202,7 +202,7 @@ def main(argv=None) -> int:
     except Exception as e:                      # noqa: BLE001 -- one line, every rank ends
         if os.environ.get("MTS_TRACEBACK"):
             raise
-        from solver.driver.stop import describe
+        from solver.errors import describe
         return stop_everyone(comm, f"internal error on rank {rank}: {describe(e)} (set "
                                    "MTS_TRACEBACK=1 for the traceback)", 1)
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from solver.coupling.schemes import MAX_RANKS, USES_EXTERNAL
 from solver.errors import SceneError
-from solver.scene import load
+from solver.model.binding import load
 
 
 def mpiexec() -> str:
