@@ -6,12 +6,6 @@ Entry points: ``python -m solver`` (:mod:`solver.tools.cli`) and the Python API
 (:mod:`solver.tools.api`): ``solver.load``, ``solver.scene_from_dict``, ``solver.run``.
 """
 
-import os as _os
-
-# one BLAS thread per MPI rank (ranks already use the cores); set before numpy loads
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    _os.environ.setdefault(_var, "1")
-
 from solver.version import __version__  # noqa: F401
 
 

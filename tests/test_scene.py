@@ -169,7 +169,6 @@ def test_parsing_builds_nothing_binding_reads_the_model(tmp_path, monkeypatch):
     calls = []
     real = mesh.read
     monkeypatch.setattr(mesh, "read", lambda *a, **k: calls.append(a) or real(*a, **k))
-    model_data._cache.clear()
     scene = parse(Scene, raw)
     assert calls == [] and any(p.group for p in scene.partitions)
     bound = from_dict(raw)

@@ -1,7 +1,8 @@
 """Meshes from gmsh: a .geo meshed through the gmsh API, or a .msh read by it.
 
 ``read(path, comm)`` reads on rank 0 of ``comm`` and broadcasts; scripts that
-load a scene on every rank in step can ask for that with :func:`read_on`.
+load a scene on every rank in step can ask for that with a
+``ModelData(comm)`` (:mod:`solver.model.data`) passed to the binding.
 The command line instead loads the scene on rank 0 alone and broadcasts the
 bound scene, so the other ranks never hold the mesh.  Scenes name physical
 groups, not tags: ``Mesh.group(name)`` returns a group or raises a one-line
@@ -188,17 +189,6 @@ def _read_gmsh(path: str, dim: int | None, parameters: dict, gdim: int | None = 
     finally:
         gmsh.finalize()
 
-
-# The communicator scenes read their meshes on (None: every process reads its own).
-# Scripts that load scenes on every rank in step may set it (:func:`read_on`), so
-# rank 0 meshes or reads the file once and broadcasts it.
-READER = None
-
-
-def read_on(comm):
-    """Scenes loaded from now on read their meshes on rank 0 of ``comm`` (collective)."""
-    global READER
-    READER = comm if comm is not None and comm.size > 1 else None
 
 
 def read(path: str, comm=None, dim: int | None = None, parameters: dict | None = None,

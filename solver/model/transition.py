@@ -303,14 +303,3 @@ def _check_layer(mesh, fe_cells, region, band, lat):
             raise SceneError(f"{key}: group {lat.transition!r} has {fam} cells; the band needs "
                              f"{mesh.dim}D cells")
 
-
-_cache: dict = {}
-
-
-def of(spec, mesh) -> Transition:
-    """``build`` once per model section and mesh (binding and the model stage share it)."""
-    key = (repr(spec), id(mesh))
-    if key not in _cache:
-        _cache.clear()
-        _cache[key] = build(spec, mesh)
-    return _cache[key]

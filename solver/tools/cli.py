@@ -12,6 +12,7 @@ import os
 import sys
 
 from solver.errors import LaunchError, SceneError, SolverError
+from solver.threads import one_blas_thread
 
 USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--restart FILE] [--overwrite] [PETSc options]
        ./run.sh test                          the test suite
@@ -136,15 +137,17 @@ def print_schemes():
             print(f"  coupling.{name}: {tp} (default {default}): {doc}")
 
 
-def load_on_root(comm, path, overrides):
-    """Rank 0 reads the scene and its mesh or network and binds them; the other
-    ranks receive the bound scene (they never read the mesh)."""
+def load_on_root(comm, path, overrides, kept=None):
+    """Rank 0 reads the scene and its mesh or network and binds them (into
+    ``kept``, the run's ModelData); the other ranks receive the bound scene (they
+    never read the mesh)."""
     from solver.collective import on_root
     from solver.model.binding import load_with_text
-    return on_root(comm, load_with_text, path, overrides)
+    return on_root(comm, load_with_text, path, overrides, kept)
 
 
 def main(argv=None) -> int:
+    one_blas_thread()                # before anything loads numpy
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help") or "--help" in argv:
         print(USAGE)
@@ -171,14 +174,19 @@ def main(argv=None) -> int:
         rank = comm.rank
         mpi_started()
         check_launch(comm)
-        scene, effective = load_on_root(comm, path, overrides)
-        start_petsc(petsc_args)
+        from solver.model.data import ModelData
+        from solver.driver.build import run_flags
+        kept = ModelData()
+        scene, effective = load_on_root(comm, path, overrides, kept)
+        petsc_only, measure_wait = run_flags(petsc_args)
+        start_petsc(petsc_only)
         guard_setup()                # again: PETSc's start-up installed its own handlers
         from solver.driver.runner import run, summary
         from solver.driver import provenance
         result = run(scene, comm, log=print, scene_text=open(path, encoding="utf-8").read(),
                      restart=restart, provenance=provenance.attrs(effective, petsc_args),
-                     overwrite=overwrite, check_options=True)
+                     overwrite=overwrite, check_options=True, kept=kept,
+                     measure_wait=measure_wait)
         if rank == 0:
             for line in summary(result, scene.output_file):
                 print(line, flush=True)

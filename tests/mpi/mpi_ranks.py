@@ -144,9 +144,9 @@ def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
     if WORLD.rank == 0:
         write_scene(path, raw)
     WORLD.barrier()
-    model_data._cache.clear()
-    scene, _ = load_on_root(WORLD, path, [])
-    assert (len(model_data._cache) == 1) == (WORLD.rank == 0)
+    kept = model_data.ModelData()
+    scene, _ = load_on_root(WORLD, path, [], kept)
+    assert (len(kept) == 1) == (WORLD.rank == 0)
     asm = build(scene, WORLD)
     counts = WORLD.allgather(sum(len(conn) for _, conn, _ in asm.model.cells))
     held = np.concatenate([p.layout.held for p in asm.parts])
