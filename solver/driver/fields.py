@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from solver.driver.observers import Observer
 from solver.model.elements import elastic
 
 
@@ -56,7 +57,7 @@ def tensor6(voigt: np.ndarray, kind: str, nu: float) -> np.ndarray:
     return np.stack([xx, xy, zero, yy, zero, zz], axis=1)
 
 
-class FieldWriter:
+class FieldWriter(Observer):
     def __init__(self, scene, mdl, parts, comm, tag: str = "", heating=None):
         from solver.model.elements import _geometry, strain_matrix
         self.comm = comm
@@ -112,6 +113,15 @@ class FieldWriter:
                                       [("vertex", np.arange(self.particles.size)[:, None])])
             self.writers.append(part_w)
         self.n_open = len(self.writers)
+
+    def after_step(self, step: int, t: float) -> None:
+        """Observer hook: a frame every ``every`` system steps."""
+        if step % self.every == 0:
+            self.write(t)
+
+    def finish(self, step: int, t: float) -> None:
+        """Observer hook: the last frame is the state the run ended in."""
+        self.write_final(t)
 
     def write(self, t: float):
         """A frame of the current state at time ``t`` (collective)."""
