@@ -48,9 +48,9 @@ def run_flags(petsc_options) -> tuple[list, bool]:
     return [o for o in options if o != MEASURE_WAIT], MEASURE_WAIT in options
 
 
-def build(scene, comm, say=_silent, kept=None, measure_wait: bool = False) -> Assembly:
+def build(scene, comm, say=_silent, store=None, measure_wait: bool = False) -> Assembly:
     """Check the launch and the steps, then build this rank's share of the run.
-    ``kept``: the run's :class:`~solver.model.data.ModelData` (rank 0 builds the
+    ``store``: the run's :class:`~solver.model.data.ModelData` (rank 0 builds the
     model from what binding read); ``measure_wait``: time the wait for the slower
     rank apart from each exchange (a barrier before it)."""
     init()
@@ -68,7 +68,7 @@ def build(scene, comm, say=_silent, kept=None, measure_wait: bool = False) -> As
 
     # the whole model on rank 0 only; the partitions stage sends every rank its share
     mdl = on_root(comm, model_mod.build, scene, overlap.layer_counts(scene.partitions, treatments),
-                  kept, share=False)
+                  store, share=False)
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     for note in getattr(mdl, "notes", None) or ():

@@ -31,7 +31,7 @@ def _silent(*_):
 
 def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None = None,
         provenance: dict | None = None, overwrite: bool = False,
-        check_options: bool = False, kept=None, measure_wait: bool = False) -> RunResult:
+        check_options: bool = False, store=None, measure_wait: bool = False) -> RunResult:
     """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output.
 
     ``restart``: an output file with a checkpoint of this scene; the run goes on
@@ -41,7 +41,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     checkpoint (refused otherwise).  ``check_options``: PETSc options that no
     object of the built run uses are refused before stepping (the command
     line's choice; scripts may set options for other objects of their own).
-    ``kept``: the :class:`~solver.model.data.ModelData` the scene was bound with
+    ``store``: the :class:`~solver.model.data.ModelData` the scene was bound with
     (the model build reuses it; None: read afresh).  ``measure_wait``: a barrier
     before every exchange, timing the wait for the slower rank apart
     (``exchange_wait_time_per_rank``; ``-exchange_measure_wait`` on the command line)."""
@@ -69,7 +69,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         problem = comm.bcast(problem)
         if problem:
             raise problem
-    asm = build(scene, comm, say, kept, measure_wait)
+    asm = build(scene, comm, say, store, measure_wait)
     mdl, parts, scheme = asm.model, asm.parts, asm.scheme
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 

@@ -142,23 +142,23 @@ def dof_masses(model, held) -> np.ndarray:
     return m
 
 
-def build(scene: Scene, layers=None, kept=None):
+def build(scene: Scene, layers=None, store=None):
     """Arrays of the scene's model (network or continuum).  ``layers``: external
     layers of every partition, as the coupling scheme's treatments give them
     (a lattice reaches as far as its dem partitions' layers; default 1).
-    ``kept``: the run's :class:`~solver.model.data.ModelData` (None: read afresh)."""
+    ``store``: the run's :class:`~solver.model.data.ModelData` (None: read afresh)."""
     if scene.model.kind == "continuum":
         from solver.model import continuum
         reach = max([n for n, p in zip(layers or [], scene.partitions) if p.method == "dem"]
                     or [1])
-        return continuum.build(scene, reach, kept)
-    return build_network(scene, kept)
+        return continuum.build(scene, reach, store)
+    return build_network(scene, store)
 
 
-def build_network(scene: Scene, kept=None) -> Model:
+def build_network(scene: Scene, store=None) -> Model:
     """Arrays of the scene's network model."""
     from solver.model import data as model_data
-    net = (kept if kept is not None else model_data.ModelData()).read(scene.model)
+    net = (store if store is not None else model_data.ModelData()).read(scene.model)
     n, dof = net.mass.size, 1
     u0, v0 = np.zeros(n), np.zeros(n)
     for node, value in scene.initial.displacement.items():

@@ -31,31 +31,31 @@ def dof(scene, data) -> int:
     return 6 if scene.model.material.kind == "shell" or scene.model.shells else data.dim
 
 
-def from_dict(raw: dict, kept=None):
+def from_dict(raw: dict, store=None):
     """A scene from plain data, parsed (:func:`solver.scene.file.from_dict`) and bound."""
-    return bind(scene_file.from_dict(raw), kept)
+    return bind(scene_file.from_dict(raw), store)
 
 
-def load(path, overrides=(), kept=None):
+def load(path, overrides=(), store=None):
     """A scene file read with ``key.path=value`` overrides, parsed and bound."""
-    return load_with_text(path, overrides, kept)[0]
+    return load_with_text(path, overrides, store)[0]
 
 
-def load_with_text(path, overrides=(), kept=None):
+def load_with_text(path, overrides=(), store=None):
     """(the bound scene, the effective scene as YAML); errors name the file."""
-    return scene_file.load_with_text(path, overrides, then=lambda scene: bind(scene, kept))
+    return scene_file.load_with_text(path, overrides, then=lambda scene: bind(scene, store))
 
 
-def bind(scene, kept=None):
+def bind(scene, store=None):
     """``scene`` checked against its model data, groups and probe points resolved.
-    ``kept``: the run's :class:`~solver.model.data.ModelData` (the model build
+    ``store``: the run's :class:`~solver.model.data.ModelData` (the model build
     reuses what binding read), or None to read afresh."""
-    kept = kept if kept is not None else model_data.ModelData()
-    data = kept.read(scene.model)
+    store = store if store is not None else model_data.ModelData()
+    data = store.read(scene.model)
     continuum = scene.model.kind == "continuum"
     zone = None
     if continuum:
-        zone = _check_continuum(scene.model, data, kept)
+        zone = _check_continuum(scene.model, data, store)
     n, d = model_data.n_nodes(data), dof(scene, data)
     if zone is not None:
         n += zone.n_core
@@ -115,7 +115,7 @@ def _traction(ld, path, mesh, space):
     return ld
 
 
-def _check_continuum(spec, mesh, kept):
+def _check_continuum(spec, mesh, store):
     mesh.group(spec.body, "model.body")
     for name in spec.fixed:
         mesh.group(name, "model.fixed")
@@ -145,7 +145,7 @@ def _check_continuum(spec, mesh, kept):
             fail(f"model.constraints[{i}].dofs", f"{bad[0]} does not exist: a {kind} model's "
                  f"nodes have {', '.join(names)}")
     if spec.lattice is not None and spec.lattice.transition:
-        return kept.transition(spec, mesh)
+        return store.transition(spec, mesh)
     return None
 
 

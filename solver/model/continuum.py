@@ -222,17 +222,17 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     return (bi, bj, bk), overlap, mass
 
 
-def build(scene, reach: int = 1, kept=None) -> ContinuumArrays:
+def build(scene, reach: int = 1, store=None) -> ContinuumArrays:
     """The continuum model; ``reach``: external layers of dem partitions (lattice
     extent).  It carries the notes of reading its mesh (duplicates removed,
     entities reoriented), which the run logs."""
-    kept = kept if kept is not None else model_data.ModelData()
-    mesh = kept.read(scene.model)
-    arrays = _build(scene, mesh, reach, kept)
+    store = store if store is not None else model_data.ModelData()
+    mesh = store.read(scene.model)
+    arrays = _build(scene, mesh, reach, store)
     return dataclasses.replace(arrays, notes=mesh.notes) if mesh.notes else arrays
 
 
-def _build(scene, mesh, reach, kept):
+def _build(scene, mesh, reach, store):
     spec = scene.model
     shells = spec.material.kind == "shell" or spec.shells
     if shells and scene.heat is not None:
@@ -246,7 +246,7 @@ def _build(scene, mesh, reach, kept):
     mat = elastic(spec.material)
     zone = None
     if spec.lattice is not None and spec.lattice.transition:
-        zone = kept.transition(spec, mesh)
+        zone = store.transition(spec, mesh)
     cells, mass = [], np.zeros(len(mesh.points))
     for fam, conn, Ke, me in group_matrices(mesh, spec.body, mat, "model.body",
                                             only=None if zone is None else zone.fe_cells):

@@ -137,13 +137,13 @@ def print_schemes():
             print(f"  coupling.{name}: {tp} (default {default}): {doc}")
 
 
-def load_on_root(comm, path, overrides, kept=None):
+def load_on_root(comm, path, overrides, store=None):
     """Rank 0 reads the scene and its mesh or network and binds them (into
-    ``kept``, the run's ModelData); the other ranks receive the bound scene (they
+    ``store``, the run's ModelData); the other ranks receive the bound scene (they
     never read the mesh)."""
     from solver.collective import on_root
     from solver.model.binding import load_with_text
-    return on_root(comm, load_with_text, path, overrides, kept)
+    return on_root(comm, load_with_text, path, overrides, store)
 
 
 def main(argv=None) -> int:
@@ -176,8 +176,8 @@ def main(argv=None) -> int:
         check_launch(comm)
         from solver.model.data import ModelData
         from solver.driver.build import run_flags
-        kept = ModelData()
-        scene, effective = load_on_root(comm, path, overrides, kept)
+        store = ModelData()
+        scene, effective = load_on_root(comm, path, overrides, store)
         petsc_only, measure_wait = run_flags(petsc_args)
         start_petsc(petsc_only)
         guard_setup()                # again: PETSc's start-up installed its own handlers
@@ -185,7 +185,7 @@ def main(argv=None) -> int:
         from solver.driver import provenance
         result = run(scene, comm, log=print, scene_text=open(path, encoding="utf-8").read(),
                      restart=restart, provenance=provenance.attrs(effective, petsc_args),
-                     overwrite=overwrite, check_options=True, kept=kept,
+                     overwrite=overwrite, check_options=True, store=store,
                      measure_wait=measure_wait)
         if rank == 0:
             for line in summary(result, scene.output_file):

@@ -144,9 +144,9 @@ def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
     if WORLD.rank == 0:
         write_scene(path, raw)
     WORLD.barrier()
-    kept = model_data.ModelData()
-    scene, _ = load_on_root(WORLD, path, [], kept)
-    assert (len(kept) == 1) == (WORLD.rank == 0)
+    store = model_data.ModelData()
+    scene, _ = load_on_root(WORLD, path, [], store)
+    assert (len(store) == 1) == (WORLD.rank == 0)
     asm = build(scene, WORLD)
     counts = WORLD.allgather(sum(len(conn) for _, conn, _ in asm.model.cells))
     held = np.concatenate([p.layout.held for p in asm.parts])
