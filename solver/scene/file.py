@@ -4,6 +4,7 @@ Part of the scene module (:mod:`solver.scene` re-exports every name).
 """
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -172,7 +173,6 @@ PATH_KEYS = (("model", "mesh"), ("model", "file"), ("output", "file"))
 def anchor_paths(raw: dict, base: str | Path) -> dict:
     """``raw`` with its relative paths (PATH_KEYS) joined to ``base``, and the
     default output ``results/<name>.h5`` placed there too."""
-    import os
     for section, key in PATH_KEYS:
         node = raw.get(section)
         if isinstance(node, dict) and isinstance(node.get(key), str) and node[key].strip():
