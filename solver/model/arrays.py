@@ -17,6 +17,7 @@ from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
 from solver.model.loads import PointLoad, load_function
 from solver.scene import Scene
+from solver.model import continuum, data as model_data
 
 
 @dataclass(frozen=True)
@@ -148,7 +149,6 @@ def build(scene: Scene, layers=None, store=None):
     (a lattice reaches as far as its dem partitions' layers; default 1).
     ``store``: the run's :class:`~solver.model.data.ModelData` (None: read afresh)."""
     if scene.model.kind == "continuum":
-        from solver.model import continuum
         reach = max([n for n, p in zip(layers or [], scene.partitions) if p.method == "dem"]
                     or [1])
         return continuum.build(scene, reach, store)
@@ -157,7 +157,6 @@ def build(scene: Scene, layers=None, store=None):
 
 def build_network(scene: Scene, store=None) -> Model:
     """Arrays of the scene's network model."""
-    from solver.model import data as model_data
     net = (store if store is not None else model_data.ModelData()).read(scene.model)
     n, dof = net.mass.size, 1
     u0, v0 = np.zeros(n), np.zeros(n)

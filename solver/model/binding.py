@@ -21,6 +21,8 @@ from solver.model import data as model_data
 from solver.scene import file as scene_file
 from solver.scene.model_spec import DOF_NAMES
 from solver.scene.schema import fail, shown
+from solver.model.shell_model import triangles
+from solver.model.boundary import fixed_dofs
 
 
 def dof(scene, data) -> int:
@@ -126,7 +128,6 @@ def _check_continuum(spec, mesh, store):
         wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain", "shell")
         fail("model.material.kind", f"{kind} does not fit a {mesh.dim}D mesh "
              f"(use {wants})")
-    from solver.model.shell_model import triangles
     if kind == "shell":
         triangles(mesh, spec.body, "model.body")
     if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
@@ -156,7 +157,6 @@ def _check_wall(mesh, group, thickness, key):
     """A shell's thickness against its element size: bending goes as t^3 and a
     node's rotary inertia as t^3 A, so a wall a millionth of its elements' size
     or thinner is no shell to step (t^3 underflows, the step has no scale)."""
-    from solver.model.shell_model import triangles
     conn, _ = triangles(mesh, group, key)
     tri = mesh.points[conn]
     edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
@@ -170,7 +170,6 @@ def _check_wall(mesh, group, thickness, key):
 def _check_free(scene, data, owned, d):
     """Every partition has a DOF that moves: a partition whose every node has
     every DOF held (model.fixed, model.constraints) has nothing to step."""
-    from solver.model.boundary import fixed_dofs
     n_mesh = model_data.n_nodes(data)
     held = fixed_dofs(scene, data, n_mesh, d).reshape(n_mesh, d)
     spec = scene.model

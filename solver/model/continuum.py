@@ -15,12 +15,14 @@ from functools import cached_property
 
 import numpy as np
 
-from solver.model import data as model_data
+from solver.model import data as model_data, heat, shell_model
 from solver.model.cell_blocks import group_matrices, kept, nodal
 from solver.model.boundary import facet_forces, facet_weights, fixed_dofs, load_list  # noqa: F401
 from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
 from solver.model.elements import elastic
+from solver.errors import SceneError
+from solver.model.lattice import cubic, merge, square
 
 
 @dataclass(frozen=True)
@@ -156,8 +158,6 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     masses for dem-owned nodes).  The lattice reaches ``reach`` spacings beyond
     its region (the external layers of the dem partitions, which the coupling
     stage decides), so that external particles carry their bonds."""
-    from solver.errors import SceneError
-    from solver.model.lattice import cubic, merge, square
     spec, mat = scene.model.lattice, scene.model.material
     region = mesh.group(spec.region, "model.lattice.region")
     pts = mesh.points
@@ -236,11 +236,9 @@ def _build(scene, mesh, reach, store):
     spec = scene.model
     shells = spec.material.kind == "shell" or spec.shells
     if shells and scene.heat is not None:
-        from solver.errors import SceneError
         raise SceneError("heat: models with shells carry no heat (conduction needs plane or "
                          "solid cells)")
     if spec.material.kind == "shell":
-        from solver.model import shell_model
         return ContinuumArrays(**shell_model.build(scene, mesh))
     dim = mesh.dim
     mat = elastic(spec.material)
@@ -253,7 +251,6 @@ def _build(scene, mesh, reach, store):
         cells.append((fam, conn, Ke))
         mass += nodal(me, conn, len(mesh.points))
     if spec.shells:
-        from solver.model import shell_model
         return ContinuumArrays(**shell_model.build_mixed(scene, mesh, cells, mass))
     if zone is not None:
         arrays = _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
@@ -277,7 +274,6 @@ def _with_heat(arrays, scene, mesh, particles=None):
     """The model with its conduction model (scene key ``heat``), if any."""
     if scene.heat is None:
         return arrays
-    from solver.model import heat
     return dataclasses.replace(arrays, heat=heat.build(scene, mesh, particles, arrays.n_nodes))
 
 
@@ -294,7 +290,6 @@ def contact_of(lat):
 
 def _with_zone(scene, mesh, zone, cells, mass):
     """The model of a transition band: mesh nodes, then the core particles."""
-    from solver.errors import SceneError
     dim = mesh.dim
     band_nodes = np.unique(np.concatenate([c.ravel() for c in zone.band_cells.values()]))
     massless = band_nodes[mass[band_nodes] <= 0]

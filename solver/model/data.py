@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.model import generators, transition
+from solver.model import generators, mesh as mesh_io, transition
 from solver.errors import SceneError
 
 
@@ -66,10 +66,9 @@ def n_nodes(data) -> int:
 
 
 def _mesh(spec, comm):
-    from solver.model import mesh
     try:
-        return mesh.read(spec.mesh, comm=comm, parameters=spec.mesh_parameters,
-                         gdim=3 if spec.material.kind == "shell" else None)
+        return mesh_io.read(spec.mesh, comm=comm, parameters=spec.mesh_parameters,
+                            gdim=3 if spec.material.kind == "shell" else None)
     except SceneError as e:
         raise SceneError(f"model.mesh: {e}") from None
 

@@ -91,7 +91,7 @@ def from_file(path: str) -> Network:
     ``spring_j`` (-1 = ground) and ``stiffness``."""
     names = ("mass", "spring_i", "spring_j", "stiffness")
     if path.endswith((".h5", ".hdf5")):
-        import h5py
+        import h5py  # lazy: h5py loads only for a model.file network (keys/schemes start fast)
         try:
             f = h5py.File(path, "r")
         except OSError as e:                   # h5py's message does not name the file

@@ -21,12 +21,16 @@ runs clockwise) is reoriented, also with a note.
 """
 from __future__ import annotations
 
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from solver.errors import SceneError
+from solver.scene.schema import shown
+from solver.model.elements import FAMILIES
+from solver.collective import on_root
 
 GMSH_TYPES = {1: ("line2", 1, 2), 2: ("tri3", 2, 3), 3: ("quad4", 2, 4), 4: ("tet4", 3, 4),
               5: ("hex8", 3, 8), 15: ("point", 0, 1)}
@@ -62,7 +66,6 @@ class Mesh:
 
     def group(self, name: str, where: str = "") -> Group:
         if name not in self.groups:
-            from solver.scene.schema import shown
             have = ", ".join(f"{g} (dim {self.groups[g].dim})" for g in sorted(self.groups))
             raise SceneError(f"{where + ': ' if where else ''}mesh has no physical group "
                              f"{shown(name)}; it has: {have or 'none'}")
@@ -71,7 +74,7 @@ class Mesh:
 
 def _unsupported(path, name, t) -> SceneError:
     """The refusal of gmsh element type ``t`` in group ``name``, in words."""
-    import gmsh
+    import gmsh  # lazy: gmsh loads only where a mesh is read
     try:
         gname, _, order, _, _, _ = gmsh.model.mesh.getElementProperties(int(t))
     except Exception:                                          # noqa: BLE001 (unknown to gmsh)
@@ -87,7 +90,6 @@ def _unsupported(path, name, t) -> SceneError:
 
 def _orientation(fam, X):
     """Jacobian determinant at the centre of each cell [n_el] (X [n_el, k, dim])."""
-    from solver.model.elements import FAMILIES
     family = FAMILIES[fam]
     centre = {"tri3": [1 / 3, 1 / 3], "tet4": [0.25] * 3}.get(fam, [0.0] * family.dim)
     _, dN = family.shape(np.array([centre]))
@@ -97,7 +99,7 @@ def _orientation(fam, X):
 def _entity_cells(path, name, gdim, ent, index, xyz, top, flat, notes):
     """{family: (conn, tags)} of one entity's elements; an entity of the top
     dimension whose cells are all inverted is reoriented (noted)."""
-    import gmsh
+    import gmsh  # lazy: gmsh loads only where a mesh is read
     out = {}
     types, el_tags, node_tags = gmsh.model.mesh.getElements(gdim, ent)
     for t, et, nt in zip(types, el_tags, node_tags):
@@ -132,13 +134,12 @@ def _unique_cells(path, name, fam, conn, tags, notes):
 
 
 def _read_gmsh(path: str, dim: int | None, parameters: dict, gdim: int | None = None) -> Mesh:
-    import gmsh
+    import gmsh  # lazy: gmsh loads only where a mesh is read
     gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         if parameters and path.endswith(".geo"):
             # gmsh.open resets the parser: prepend the definitions to a copy
-            import tempfile
             head = "".join(f"{k} = {float(v)!r};\n" for k, v in parameters.items())
             with tempfile.NamedTemporaryFile("w", suffix=".geo", delete=False) as tmp:
                 tmp.write(head + Path(path).read_text())
@@ -199,7 +200,6 @@ def read(path: str, comm=None, dim: int | None = None, parameters: dict | None =
     shells)."""
     if not Path(path).is_file():
         raise SceneError(f"{path}: mesh file not found")
-    from solver.collective import on_root
 
     def read_here():
         try:

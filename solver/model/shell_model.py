@@ -19,7 +19,7 @@ import numpy as np
 from solver.errors import SceneError
 from solver.model import shell
 from solver.model.boundary import fixed_dofs, load_list
-from solver.model.elements import Family, elastic
+from solver.model.elements import Family, elastic, volumes
 
 SHELL3 = Family("shell3", 2, 3, np.array([[1 / 3, 1 / 3]]), np.array([0.5]))
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
@@ -160,7 +160,6 @@ def build_mixed(scene, mesh, solid_cells, mass):
     """A solid body with shell surfaces (``model.shells``): every node has 6
     DOFs; the solid-only nodes' rotations are fixed; shell nodes on the solid
     are tied to it.  The fields of its :class:`~solver.model.continuum.ContinuumArrays`."""
-    from solver.model.elements import volumes
     spec, mat = scene.model, scene.model.material
     pts, n = mesh.points, len(mesh.points)
     mass = mass.copy()
