@@ -18,6 +18,7 @@ import numpy as np
 
 from solver.model.cell_blocks import CellStiffness, group_matrices, kept, nodal  # noqa: F401 -- tests import them here
 from solver.petscutil import init
+from solver.errors import SceneError
 
 CHUNK = 2048          # elements per insertion call (bounds the temporaries)
 
@@ -184,7 +185,6 @@ def _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, sca
     if "baij" in A.getType():
         kind = A.getType()
         A.destroy()
-        from solver.errors import SceneError
         raise SceneError(f"-{prefix}mat_type {kind}: nodes with differing DOF counts need a "
                          "scalar matrix type (aij, sell, dense)")
 

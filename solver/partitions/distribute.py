@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.model.layout import Layout
+from solver.petscutil import init
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,6 @@ def whole(layout: Layout, n_nodes: int) -> Distribution:
 
 def rcm(nodes: np.ndarray, graph) -> np.ndarray:
     """``nodes`` in reverse Cuthill-McKee order of the subgraph they induce."""
-    from solver.petscutil import init
     n = nodes.size
     if n <= 2:
         return nodes.copy()
