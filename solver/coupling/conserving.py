@@ -411,7 +411,7 @@ class Conserving(OwnSides):
             clocks.part(self.C, self._coarse_link, V, buf[n:2 * n].copy(), buf[2 * n:].copy())
 
     def _reduce(self):
-        from mpi4py import MPI
+        from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
         self.comm.Allreduce(MPI.IN_PLACE, self._buf, op=MPI.SUM)
 
     def _coarse_free(self, t_m):

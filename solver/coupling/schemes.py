@@ -77,6 +77,7 @@ MAX_RANKS = {"gc": 1, "conserving": 2}
 
 
 def scheme_class(name: str):
+    # lazy: cli schemes reads these tables without the scheme modules
     from solver.coupling.system_step import ConcurrentOverlap, Staggered, TransitionZone
     from solver.coupling.gc import GravouilCombescure
     from solver.coupling.conserving import Conserving

@@ -23,6 +23,8 @@ import numpy as np
 
 from solver.coupling.exchange import Exchange
 from solver.petscutil import Stage, init
+from solver.errors import describe
+from solver.partitions.partitioning import build_partitions
 
 
 class _Clocks:
@@ -82,7 +84,6 @@ class _Clocks:
     def failed(self, part, error):
         """Mark ``part`` failed: it stops stepping, the scheme goes on exchanging
         until the run stops on every rank (:mod:`solver.driver.stop`)."""
-        from solver.errors import describe
         part.failed = True
         message = describe(error)
         if not message.startswith(f"partition '{part.name}'"):
@@ -113,7 +114,6 @@ class ConcurrentOverlap:
     @classmethod
     def build(cls, scene, model, comm, say):
         """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme."""
-        from solver.partitions.partitioning import build_partitions
         built = build_partitions(scene, model, comm, cls.treatments(scene), say)
         scheme = cls(comm, built.dists, built.assignment, built.parts, built.model.dofmap, scene)
         scheme.layouts, scheme.freqs, scheme.model = built.layouts, built.freqs, built.model
