@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from solver.model import arrays as model_mod
+from solver.model import arrays as model_mod, element_steps
 from solver.collective import on_root
 from solver.model import layout as overlap
 from solver.petscutil import init
@@ -76,7 +76,6 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False) -> A
     if mdl is not None and getattr(mdl, "zone", None) is not None:
         say(f"[solver]   {mdl.zone.describe()}")
     if mdl is not None and say is not _silent:
-        from solver.model import element_steps
         for line in element_steps.lines(scene, mdl):
             say(f"[solver]   {line}")
     scheme = scheme_cls.build(scene, mdl, comm, say)

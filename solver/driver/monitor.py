@@ -116,6 +116,7 @@ class EnergyGuard(Observer):
         for part in self.parts:
             local += part.energies()
         if self.comm.size > 1:
+            # lazy: importing mpi4py starts MPI; the entry point decides when
             from mpi4py import MPI
             local = self.comm.allreduce(local, op=MPI.SUM)
         for name, value in zip(("kinetic", "strain", "external_work", "dissipated"), local):

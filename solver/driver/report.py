@@ -4,6 +4,7 @@ histories, energies, broken bonds, heating), gathered on every rank by
 (:mod:`solver.driver.output`)."""
 from __future__ import annotations
 
+import resource
 import time
 from dataclasses import dataclass, field
 
@@ -114,7 +115,6 @@ def broken_bonds(parts, comm):
 
 def peak_rss_mb() -> float:
     """Peak resident memory of this process so far [MB]."""
-    import resource
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 

@@ -18,11 +18,17 @@ import numpy as np
 from solver.model import layout as overlap
 from solver.driver.build import build
 from solver.driver.comparison import add_reference, check_reference
-from solver.errors import RunFailed, SceneError, StabilityError
+from solver.errors import RunFailed, SceneError, StabilityError, describe
 from solver.driver.checkpoint import Checkpoint
 from solver.driver.monitor import EnergyGuard, Probes
 from solver.driver.observers import Progress
 from solver.driver.report import Report, RunResult
+from solver.driver import output, state, stress, provenance as prov
+from solver.driver.heating import Heating
+from solver.petscutil import check_unused
+from solver.driver.stop import Stopper, Interrupted
+from solver.driver.fields import FieldWriter, write_cracks
+from solver.driver.state import group_writer
 
 
 def _silent(*_):
@@ -45,10 +51,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     (the model build reuses it; None: read afresh).  ``measure_wait``: a barrier
     before every exchange, timing the wait for the slower rank apart
     (``exchange_wait_time_per_rank``; ``-exchange_measure_wait`` on the command line)."""
-    from mpi4py import MPI
-
-    from solver.driver import output
-    from solver.driver import state
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
 
     t_start = time.perf_counter()
     comm = comm or MPI.COMM_WORLD
@@ -74,7 +77,6 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
-    from solver.driver import stress
     probes = Probes(scene.probes, parts, owner, n_sys, getattr(mdl, "points", None),
                     stress.build(scene, mdl, parts))
     for probe in scene.probes:
@@ -85,7 +87,6 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
                 f"{[float(f'{c:.6g}') for c in xyz]} ({gap:.3g} m away)")
     heating = None
     if getattr(mdl, "heat", None) is not None:
-        from solver.driver.heating import Heating
         heating = Heating(mdl.heat, parts, scene)
         say(f"[solver]   {heating.describe()}")
         if probes.stress is not None:
@@ -101,15 +102,12 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         if heating is not None and saved.get("heat") is not None:
             heating.restore(saved["heat"])
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
-    from solver.driver import provenance as prov
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start, heating)
     report.extra = {"versions": prov.versions(), "commit": prov.commit(), **model_counts(mdl, comm),
                     **(provenance or {})}
     if check_options:
-        from solver.petscutil import check_unused
         check_unused(comm, [p.name for p in scene.partitions])
     report.setup_wall = time.perf_counter() - t_start
-    from solver.driver.stop import Stopper
     # from the first write on, an interrupt is a flag the step loop polls (the
     # output is kept); a second one stops at once
     with Stopper(comm, start) as stop:
@@ -118,7 +116,6 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
 
 def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start):
     """The run from its first output on: checkpoint, fields, stepping, the final output."""
-    from solver.driver import output
     rank, mdl, parts, scheme = comm.rank, asm.model, asm.parts, asm.scheme
     Dt = scene.system_dt
     spec = scene.output.checkpoint if scene.output else None
@@ -128,7 +125,6 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
 
     fields = None
     if scene.output and scene.output.fields:
-        from solver.driver.fields import FieldWriter
         fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "",
                              heating=heating)
         fields.write(start * Dt)
@@ -153,7 +149,6 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     if fields and rank == 0:
         written = fields.written()
         if result.broken is not None and len(result.broken):
-            from solver.driver.fields import write_cracks
             written += write_cracks(scene.output_file, result.broken, mdl.dof)
         result.attrs["field_files"] = np.array(written, dtype=object)
     if scene.reference != "none" and not failure and result.probes:
@@ -163,10 +158,8 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     final = checkpoint.final(done, failure) if checkpoint else None
     asm.destroy()
     if rank == 0:
-        from solver.driver.state import group_writer
         output.write(scene.output_file, result, checkpoint=group_writer(final))
     comm.barrier()
-    from solver.driver.stop import Interrupted
     if failure:
         raise (Interrupted if interrupted else RunFailed)(
             f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
@@ -217,7 +210,6 @@ def step_loop(scheme, observers, stop, start: int, n_steps: int, dt: float, rank
 
     Returns (failure message or None, system steps done, stepping wall time,
     interrupted)."""
-    from solver.errors import describe
     clock = time.perf_counter
     for ob in observers:
         ob.start(start, n_steps)
