@@ -14,19 +14,21 @@ every rank; it writes the output file as the command line does.  Errors are
 from __future__ import annotations
 
 from solver.threads import one_blas_thread
+from solver.model import binding
+from solver.petscutil import init
+from solver.driver.build import run_flags
+from solver.driver.runner import run as _run
 
 
 def load(path, overrides=()):
     """A validated scene from a YAML file and ``key.path=value`` overrides."""
     one_blas_thread()
-    from solver.model import binding
     return binding.load(path, list(overrides))
 
 
 def scene_from_dict(raw: dict):
     """A validated scene from plain data (the YAML's structure)."""
     one_blas_thread()
-    from solver.model import binding
     return binding.from_dict(raw)
 
 
@@ -38,9 +40,6 @@ def run(scene, comm=None, petsc_options=(), log=None, restart=None, overwrite=Fa
     ``overwrite``: replace an output file that holds a checkpoint (refused
     otherwise, as on the command line)."""
     one_blas_thread()
-    from solver.petscutil import init
-    from solver.driver.build import run_flags
-    from solver.driver.runner import run as _run
     petsc_only, measure_wait = run_flags(petsc_options)
     init(petsc_only)
     return _run(scene, comm, log=log or (lambda *a, **k: None), restart=restart,
