@@ -31,8 +31,7 @@ refused (SceneError naming the partition).
 """
 from __future__ import annotations
 
-from dataclasses import replace
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
