@@ -133,16 +133,17 @@ def measure(label, scene, p=0, truth=True):
 
 def block_scene(n, tmp):
     from solver import scene as scene_mod
+    from solver.model import binding
     mesh = Path(tmp) / f"block{n}.msh"
     make_mesh(n, str(mesh))
     path = Path(tmp) / f"block{n}.yaml"
     path.write_text(SCENE.format(end=1e-8, mesh=mesh, out=Path(tmp) / "o.h5"))
-    return scene_mod.load(path)
+    return binding.load(path)
 
 
 def config(name, **sets):
     from solver import scene as scene_mod
-    return scene_mod.load(ROOT / "configs" / f"{name}.yaml", [f"{k}={v}" for k, v in sets.items()])
+    return binding.load(ROOT / "configs" / f"{name}.yaml", [f"{k}={v}" for k, v in sets.items()])
 
 
 def fmt(x, spec="+.1e"):

@@ -25,6 +25,8 @@ from pathlib import Path
 import h5py
 
 from solver import scene as scene_mod
+
+from solver.model import binding
 from solver.petscutil import init
 from solver.tools.sweep import mpiexec
 
@@ -36,7 +38,7 @@ def serial(scene_path, eta, out):
     from mpi4py import MPI
 
     from solver.driver.runner import run
-    scene = scene_mod.load(scene_path, [f"partitions.fem.ratio={eta}", "reference=none",
+    scene = binding.load(scene_path, [f"partitions.fem.ratio={eta}", "reference=none",
                                         f"output.file={out}", "output.progress=0"])
     res = run(scene, MPI.COMM_SELF, log=lambda *a: None)
     return res.attrs, res.partitions

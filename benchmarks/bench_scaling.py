@@ -71,9 +71,10 @@ def partition_table(a, counts):
     from solver.coupling import overlap
     from solver.partitions import ranks
     from solver import scene as scene_mod
+    from solver.model import binding
     from solver.partitions.partitioning import owned_nonzeros
     from solver.coupling.schemes import scheme_class
-    scene = scene_mod.load(SCENE, overrides(a, 10))
+    scene = binding.load(SCENE, overrides(a, 10))
     mdl = model_mod.build(scene)
     graph = mdl.graph()
     treat = scheme_class(scene.coupling.scheme).treatments(scene)

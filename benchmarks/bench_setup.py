@@ -90,12 +90,13 @@ def solver_run(scene: Path, out: Path, ranks: int) -> dict:
 
 def matmult_table(scene_path: Path) -> list[dict]:
     from solver import scene as scene_mod
+    from solver.model import binding
     from solver.partitions.assembly import matrix
     from solver.model.continuum import build
     from solver.partitions.distribute import rcm
     from solver.petscutil import init
     P = init([])
-    scene = scene_mod.load(scene_path)
+    scene = binding.load(scene_path)
     mdl = build(scene)
     n = mdl.n_nodes
     held = np.arange(n)

@@ -19,6 +19,7 @@ import numpy as np
 
 from solver.model import arrays as model_mod
 from solver import scene as scene_mod
+from solver.model import binding
 from solver.petscutil import aij, init, vec_on
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -69,7 +70,7 @@ def main(argv=None):
     from mpi4py import MPI
 
     from solver.driver.runner import run
-    scene = scene_mod.load(ROOT / "configs/six_dof.yaml",
+    scene = binding.load(ROOT / "configs/six_dof.yaml",
                            [f"partitions.fem.ratio={args.eta}", f"time.end={args.end}",
                             "output.file=results/bench_six_dof.h5", "output.progress=0"])
     res = run(scene, MPI.COMM_SELF, log=lambda *a: None)

@@ -45,6 +45,8 @@ from pathlib import Path
 import numpy as np
 
 from solver import scene as scene_mod
+
+from solver.model import binding
 from solver.errors import RunFailed, SolverError
 from solver.petscutil import init
 
@@ -143,7 +145,7 @@ def rows(runs, lines, tmp, curves):
     t_ref = None
     for label, layers, ratio, (path, sets) in runs:
         try:
-            scene = scene_mod.load(path, COMMON + sets + [f"output.file={tmp}/r{len(lines)}.h5"])
+            scene = binding.load(path, COMMON + sets + [f"output.file={tmp}/r{len(lines)}.h5"])
             res = run(scene, MPI.COMM_SELF, log=lambda *x: None)
         except (RunFailed, SolverError) as e:
             lines.append(f"| {label} | {layers} | {ratio} | - | - | - | - | - | - | - | "

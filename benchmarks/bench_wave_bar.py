@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from solver import scene as scene_mod
+
+from solver.model import binding
 from solver.errors import RunFailed
 from solver.petscutil import init
 
@@ -73,7 +75,7 @@ def main(argv=None):
              "|---|---|---|---|---|---|---|---|---|---|"]
     t_ref = None
     for i, (label, sets, integ, eta) in enumerate(RUNS):
-        scene = scene_mod.load("configs/wave_bar.yaml", base + sets + [f"output.file={tmp}/r{i}.h5"])
+        scene = binding.load("configs/wave_bar.yaml", base + sets + [f"output.file={tmp}/r{i}.h5"])
         try:
             res = run(scene, MPI.COMM_SELF, log=lambda *x: None)
         except RunFailed as e:

@@ -7,28 +7,25 @@ Entry points: ``python -m solver`` and the ``mts-solver`` console script
 (:mod:`solver.tools.api`): ``solver.load``, ``solver.scene_from_dict``, ``solver.run``.
 """
 
-import os as _os
-
-# one BLAS thread per MPI rank (ranks already use the cores); set before numpy loads
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    _os.environ.setdefault(_var, "1")
-
-__version__ = "0.2.0"
+from solver.version import __version__  # noqa: F401
 
 
 def load(path, overrides=()):
     """See :func:`solver.tools.api.load`."""
+    # lazy: import solver stays light: the API loads on first use
     from solver.tools.api import load as _load
     return _load(path, overrides)
 
 
 def scene_from_dict(raw):
     """See :func:`solver.tools.api.scene_from_dict`."""
+    # lazy: import solver stays light: the API loads on first use
     from solver.tools.api import scene_from_dict as _from_dict
     return _from_dict(raw)
 
 
 def run(scene, comm=None, petsc_options=(), log=None, restart=None, overwrite=False):
     """See :func:`solver.tools.api.run`."""
+    # lazy: import solver stays light: the API loads on first use
     from solver.tools.api import run as _run
     return _run(scene, comm, petsc_options, log, restart, overwrite)

@@ -32,3 +32,10 @@ class RunFailed(SolverError):
     """The run started but had to stop (non-finite state, energy growth)."""
 
     exit_code = 3
+
+
+def describe(error: BaseException) -> str:
+    """One line for any exception raised while a partition steps."""
+    text = str(error).strip().splitlines()
+    line = text[-1] if text else type(error).__name__
+    return line if isinstance(error, RunFailed) else f"{type(error).__name__}: {line}"

@@ -6,9 +6,12 @@ point.  Everything else imports ``PETSc`` from here.
 """
 from __future__ import annotations
 
+import difflib
 import sys
 
 import numpy as np
+
+from solver.errors import SceneError
 
 _started = False
 
@@ -17,10 +20,10 @@ def init(argv=None):
     """Initialise petsc4py with ``argv`` (PETSc options, e.g. -options_file)."""
     global _started
     if not _started:
-        import petsc4py
+        import petsc4py  # lazy: petsc4py.init must see the options before PETSc is imported
         petsc4py.init([sys.argv[0]] + list(argv or []))
         _started = True
-    from petsc4py import PETSc
+    from petsc4py import PETSc  # lazy: petsc4py.init must see the options before PETSc is imported
     return PETSc
 
 
@@ -54,9 +57,6 @@ def check_unused(comm, prefixes):
     run with the default and warn only at the end.  Options PETSc reads at
     finalisation (-log_view, ...) are not checked.  Names the nearest known
     option (-fem_pc_typ -> -fem_pc_type)."""
-    import difflib
-
-    from solver.errors import SceneError
     opts = init().Options()
     names = opts.getAll()
     unused = {n for n in names if not n.startswith(_LATE) and not opts.used(n)}

@@ -62,7 +62,7 @@ def run_scene(raw: dict, tmp_path: Path, comm=None):
     """Validate and run raw scene data in this process; returns the RunResult."""
     from mpi4py import MPI
 
-    from solver import scene as scene_mod
+    from solver.model import binding
     from solver.petscutil import init
     from solver.driver.runner import run
     init([])
@@ -70,7 +70,7 @@ def run_scene(raw: dict, tmp_path: Path, comm=None):
     raw.setdefault("output", {})
     raw["output"] = {**(raw["output"] or {}), "file": str(tmp_path / f"{raw['name']}.h5"),
                      "progress": 0}
-    return run(scene_mod.from_dict(raw), comm or MPI.COMM_SELF, log=lambda *a: None)
+    return run(binding.from_dict(raw), comm or MPI.COMM_SELF, log=lambda *a: None)
 
 
 def stop_and_restart(raw: dict, tmp_path: Path, end: float, stop: float, every: int,

@@ -169,7 +169,7 @@ def test_loads_on_the_fine_side(tmp_path):
     invariant holds to 1e-10."""
     from solver.driver import reference
     from solver.model import arrays
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     out = {}
     for scheme in ("conserving", "staggered"):
         raw = chain(4, scheme=scheme, end=100.0)

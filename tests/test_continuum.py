@@ -196,10 +196,12 @@ def test_interface_forces_are_action_and_reaction(dim, tmp_path):
     from mpi4py import MPI
 
     from solver import scene as scene_mod
+
+    from solver.model import binding
     from solver.driver.build import build
     raw = coupled_bar() if dim == 2 else bar3d(True, tmp_path)
     raw["output"] = {"file": str(tmp_path / "o.h5")}
-    scene = scene_mod.from_dict(raw)
+    scene = binding.from_dict(raw)
     fem, dem = build(scene, MPI.COMM_SELF).parts
 
     def local(part, dofs):
@@ -252,7 +254,7 @@ def test_xdmf_stress_is_read_by_vtk_as_the_tensor_it_is(name, tmp_path):
     from vtkmodules.vtkIOXdmf2 import vtkXdmfReader
     from solver.driver.build import build
     from solver.driver.fields import FieldWriter
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     raw = raw_scene(name)
     raw["reference"] = "none"
     raw["output"] = {"file": str(tmp_path / "u.h5"), "fields": {"every": 1}}

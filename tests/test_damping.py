@@ -49,7 +49,7 @@ def test_damping_lowers_the_explicit_critical_step(tmp_path):
     crit = float(proc.stderr.split("critical step ")[1].split(" s")[0])
     from solver.model import arrays as model
     from solver.driver import reference
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     w = reference.modes(model.build(from_dict(raw)))[0].max()       # omega_max of the chain
     xi = 0.5 * (0.05 / w + 0.5 * w)
     assert crit == pytest.approx(2 * (np.sqrt(1 + xi ** 2) - xi) / w, rel=1e-3)

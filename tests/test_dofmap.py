@@ -9,7 +9,7 @@ from mixed_dofs import K2, U2, mixed, run
 from solver.model import arrays
 from solver.model.dofmap import DofMap, ranges
 from solver.partitions.assembly import matrix, triplets
-from solver.scene import from_dict
+from solver.model.binding import from_dict
 
 
 def test_numbering_of_mixed_counts():

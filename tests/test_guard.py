@@ -59,7 +59,7 @@ def test_lanczos_estimate_is_the_exact_omega_raised_by_its_margin(name, monkeypa
     from solver.coupling import overlap
     from solver.model import arrays
     from solver.partitions import stability
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     scene = from_dict(raw_scene(name))
     mdl = arrays.build(scene, [1] * len(scene.partitions))
     layouts = overlap.derive(mdl.graph(), scene.partitions, [1] * len(scene.partitions))

@@ -403,7 +403,7 @@ def test_load_keys_that_would_be_ignored_are_refused(tmp_path, scene, sets, key,
 
 
 def test_group_load_component_sets_the_traction_axis():
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     from solver.model import continuum
     raw = raw_scene("wave_bar_fem")
     raw["loads"][0].pop("direction")

@@ -117,7 +117,7 @@ def test_particles_and_cracks_read_as_single_datasets(tmp_path):
     times, data = frames(particles)
     assert np.allclose(times, np.array([0, 1000, 2000, n_sys]) * dt, rtol=1e-12, atol=0)
     from solver.model.binding import bind
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     scene = bind(from_dict({**raw, "output": {"file": str(tmp_path / "x.h5")}}))
     ids = np.array(sorted(next(p for p in scene.partitions if p.method == "dem").nodes))
     pr = res.probes["F"]

@@ -48,7 +48,7 @@ def partition_operator(name, p=0):
     from solver.coupling import overlap
     from solver.model import arrays
     from solver.model.arrays import dof_masses
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     scene = from_dict(raw_scene(name))
     mdl = arrays.build(scene, [1] * len(scene.partitions))
     lay = overlap.derive(mdl.graph(), scene.partitions, [1] * len(scene.partitions))[p]
@@ -175,7 +175,7 @@ def test_refusal_step_and_critical_step_read_differently(tmp_path):
     from solver.coupling import overlap
     from solver.model import arrays
     from solver.partitions import stability
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     raw = raw_scene("six_dof")
     scene = from_dict(raw)
     mdl = arrays.build(scene)

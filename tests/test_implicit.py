@@ -48,8 +48,10 @@ def test_staggered_prescribes_the_explicit_accelerations(tmp_path):
     from mpi4py import MPI
 
     from solver import scene as scene_mod
+
+    from solver.model import binding
     from solver.driver.build import build
-    scene = scene_mod.load("configs/metamaterial_implicit.yaml", ["partitions.fem.ratio=4"])
+    scene = binding.load("configs/metamaterial_implicit.yaml", ["partitions.fem.ratio=4"])
     asm = build(scene, MPI.COMM_SELF)
     fem, dem = asm.parts
     for s in range(2000):

@@ -3,7 +3,7 @@ import numpy as np
 
 from solver.model import arrays as model
 from solver.coupling import overlap
-from solver.scene import load
+from solver.model.binding import load
 
 
 def layouts(treatment, fem_ratio=5):

@@ -115,7 +115,7 @@ def test_nodes_no_cell_uses_are_left_out(tmp_path):
     and runs instead of reporting it 'owned by no partition'."""
     from conftest import run_scene
     from solver.model import data as model_data
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     (tmp_path / "disc.geo").write_text(DISC)
     raw = {"name": "disc", "time": {"end": 1e-6, "dt": 1e-7},
            "model": {"kind": "continuum", "mesh": str(tmp_path / "disc.geo"), "body": "solid",

@@ -7,7 +7,7 @@ from conftest import raw_scene, run_cli, run_scene, write_scene
 from solver.model import arrays as model_mod
 from solver.driver import monolithic
 from solver.driver import reference
-from solver.scene import from_dict
+from solver.model.binding import from_dict
 
 # acceptance limits of the issue (relative L2 error of the probe history)
 LIMITS = {5: 1.2e-3, 20: 1.5e-2}

@@ -7,7 +7,7 @@ from conftest import raw_scene, run_cli, write_scene
 from solver.model import generators
 from solver.model import data as model_data
 from solver.errors import SceneError
-from solver.scene import from_dict
+from solver.model.binding import from_dict
 
 
 def test_metamaterial_generator_matches_seed_000():

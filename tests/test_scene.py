@@ -124,7 +124,7 @@ def test_override_of_unknown_item(tmp_path):
 
 
 def test_yaml12_floats_and_overrides():
-    from solver.scene import load
+    from solver.model.binding import load
     scene = load("configs/six_dof.yaml", ["time.dt=2e-4", "partitions.fem.ratio=10",
                                           "coupling.external=literal"])
     assert scene.time.dt == 2e-4
@@ -162,13 +162,13 @@ def test_parsing_builds_nothing_binding_reads_the_model(tmp_path, monkeypatch):
     from solver.model import data as model_data
     from solver.errors import SceneError
     from solver.scene.schema import parse
-    from solver.scene import Scene, from_dict
+    from solver.model.binding import from_dict
+    from solver.scene import Scene
     monkeypatch.chdir(ROOT)
     raw = raw_scene("wave_bar")
     calls = []
     real = mesh.read
     monkeypatch.setattr(mesh, "read", lambda *a, **k: calls.append(a) or real(*a, **k))
-    model_data._cache.clear()
     scene = parse(Scene, raw)
     assert calls == [] and any(p.group for p in scene.partitions)
     bound = from_dict(raw)

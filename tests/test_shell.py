@@ -188,7 +188,7 @@ def frequencies(raw, k):
     from scipy.sparse.linalg import eigsh
     from solver.model import arrays
     from solver.partitions.assembly import triplets
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     mdl = arrays.build(from_dict(raw))
     nodes = np.arange(mdl.n_nodes)
     r, c, v = triplets(mdl.stiffness_blocks(nodes), mdl.dofmap)
@@ -381,7 +381,7 @@ def assembled(raw):
     import scipy.sparse as sp
     from solver.model import arrays
     from solver.partitions.assembly import triplets
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     mdl = arrays.build(from_dict(raw))
     r, c, v = triplets(mdl.stiffness_blocks(np.arange(mdl.n_nodes)), mdl.dofmap)
     n = mdl.dofmap.n_dofs

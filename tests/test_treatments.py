@@ -9,13 +9,15 @@ import pytest
 from mpi4py import MPI
 
 from solver import scene as scene_mod
+
+from solver.model import binding
 from solver.driver.build import build
 
 ETA = 10
 
 
 def dem_after_warmup(treatment):
-    scene = scene_mod.load("configs/six_dof.yaml", [f"partitions.fem.ratio={ETA}",
+    scene = binding.load("configs/six_dof.yaml", [f"partitions.fem.ratio={ETA}",
                                                     f"coupling.external={treatment}"])
     asm = build(scene, MPI.COMM_SELF)
     for s in range(300):                       # a non-trivial state: t = 0.3 s

@@ -36,13 +36,13 @@ from __future__ import annotations
 import numpy as np
 
 from solver.collective import agree, on_root
-from solver.coupling.overlap import Layout
+from solver.model.layout import Layout
 from solver.coupling.scheme import two_sides
 from solver.coupling.system_step import Clocks
 from solver.coupling.gc import OwnSides
 from solver.errors import LaunchError, SceneError, SolverError
 from solver.partitions import integrators, stability
-from solver.partitions.assembly import kept
+from solver.model.cell_blocks import kept
 from solver.partitions.dem import DemPartition
 from solver.partitions.fem import FemPartition
 from solver.petscutil import init
@@ -457,7 +457,7 @@ class Conserving(OwnSides):
             clocks.part(self.C, self._coarse_link, V, buf[n:2 * n].copy(), buf[2 * n:].copy())
 
     def _reduce(self):
-        from mpi4py import MPI
+        from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
         self.comm.Allreduce(MPI.IN_PLACE, self._buf, op=MPI.SUM)
 
     def _coarse_free(self, t_m):

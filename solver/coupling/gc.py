@@ -27,7 +27,7 @@ from solver.partitions import integrators, stability
 from solver.coupling.scheme import Scheme, two_sides
 from solver.coupling.system_step import Clocks
 from solver.partitions.fem import FemPartition
-from solver.coupling.overlap import Layout
+from solver.model.layout import Layout
 from solver.petscutil import init
 from solver.scene.schema import fail
 

@@ -24,16 +24,19 @@ from solver.coupling.exchange import Exchange
 from solver.coupling.scheme import Scheme, two_sides
 from solver.partitions import integrators
 from solver.petscutil import Stage, init
+from solver.errors import describe
+from solver.partitions.partitioning import build_partitions
 
 
 class Clocks:
     """Wall time of partitions and exchanges, and PETSc logging stages (one per
     partition, one for the exchange) when PETSc logging is on (-log_view).
 
-    With the option ``-exchange_measure_wait`` every exchange is preceded by a
-    barrier on ``comm``: the time in the barrier is the wait for the slowest
-    rank (``wait_wall``), the rest the exchange itself (``exchange_wall``).
-    Without it, ``exchange_wall`` includes the wait."""
+    After :meth:`measure_wait` (the run option ``measure_wait``, on the command
+    line ``-exchange_measure_wait``) every exchange is preceded by a barrier on
+    ``comm``: the time in the barrier is the wait for the slowest rank
+    (``wait_wall``), the rest the exchange itself (``exchange_wall``).  Without
+    it, ``exchange_wall`` includes the wait."""
 
     def __init__(self, parts, names=None, comm=None):
         # every rank registers every partition's stage in the same order (PETSc
@@ -43,14 +46,20 @@ class Clocks:
         self.exchange_wall = 0.0
         self.wait_wall = None
         self.failures = []          # "partition 'x': message" of partitions that failed
+        self.comm = comm
         P = init()
         self.logging = P.Log.isActive()
-        measure = P.Options().getBool("exchange_measure_wait", False)
-        if measure and comm is not None and comm.size > 1:
-            self.wait_wall, self._barrier = 0.0, comm.Barrier
-            self._exchange = self._exchange_after_barrier
         if not self.logging:
             self.part, self.exchange = self._part, self._exchange
+
+    def measure_wait(self):
+        """From now on a barrier on ``comm`` (several ranks) before every exchange:
+        its time is the wait for the slowest rank (``wait_wall``)."""
+        if self.comm is not None and self.comm.size > 1:
+            self.wait_wall, self._barrier = 0.0, self.comm.Barrier
+            self._exchange = self._exchange_after_barrier
+            if not self.logging:
+                self.exchange = self._exchange
 
     def part(self, part, fn, *args):
         stage = self._stages[part.name]
@@ -76,7 +85,6 @@ class Clocks:
     def failed(self, part, error):
         """Mark ``part`` failed: it stops stepping, the scheme goes on exchanging
         until the run stops on every rank (:mod:`solver.driver.stop`)."""
-        from solver.driver.stop import describe
         part.failed = True
         message = describe(error)
         if not message.startswith(f"partition '{part.name}'"):
@@ -121,7 +129,6 @@ class ConcurrentOverlap(Scheme):
     @classmethod
     def build(cls, scene, model, comm, say):
         """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme."""
-        from solver.partitions.partitioning import build_partitions
         return cls(scene, build_partitions(scene, model, comm, cls.treatments(scene), say), comm)
 
     def __init__(self, scene, built, comm):

@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.model.loads import load_function
+
 
 def history(scene, t, x):
     """(displacement, velocity, valid mask) at probe abscissa ``x`` and times ``t``."""
-    from solver.model.loads import load_function
     ref = scene.reference
     mat = scene.model.material
     c = np.sqrt(mat.E / mat.rho)

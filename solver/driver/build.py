@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from solver.model import arrays as model_mod
+from solver.model import arrays as model_mod, element_steps
 from solver.collective import on_root
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
 
@@ -37,8 +37,21 @@ class Assembly:
             exchange.destroy()
 
 
-def build(scene, comm, say=_silent) -> Assembly:
-    """Check the launch and the steps, then build this rank's share of the run."""
+MEASURE_WAIT = "-exchange_measure_wait"    # the command line's word for measure_wait
+
+
+def run_flags(petsc_options) -> tuple[list, bool]:
+    """(the PETSc options, measure_wait): ``-exchange_measure_wait`` among the
+    options is the run option, not PETSc's."""
+    options = list(petsc_options)
+    return [o for o in options if o != MEASURE_WAIT], MEASURE_WAIT in options
+
+
+def build(scene, comm, say=_silent, store=None, measure_wait: bool = False) -> Assembly:
+    """Check the launch and the steps, then build this rank's share of the run.
+    ``store``: the run's :class:`~solver.model.data.ModelData` (rank 0 builds the
+    model from what binding read); ``measure_wait``: time the wait for the slower
+    rank apart from each exchange (a barrier before it)."""
     init()
     size = comm.size
     n_part = len(scene.partitions)
@@ -51,7 +64,7 @@ def build(scene, comm, say=_silent) -> Assembly:
 
     # the whole model on rank 0 only; the partitions stage sends every rank its share
     mdl = on_root(comm, model_mod.build, scene, overlap.layer_counts(scene.partitions, treatments),
-                  share=False)
+                  store, share=False)
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     for note in mdl.notes if mdl is not None else ():
@@ -59,10 +72,11 @@ def build(scene, comm, say=_silent) -> Assembly:
     if mdl is not None and mdl.zone is not None:
         say(f"[solver]   {mdl.zone.describe()}")
     if mdl is not None and say is not _silent:
-        from solver.model import element_steps
         for line in element_steps.lines(scene, mdl):
             say(f"[solver]   {line}")
     scheme = scheme_cls.build(scene, mdl, comm, say)
+    if measure_wait:
+        scheme.clocks.measure_wait()
     parts, layouts, freqs, mdl = scheme.parts, scheme.layouts, scheme.freqs, scheme.model
     lines = []
     for part in parts:

@@ -5,16 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.driver import reference
+from solver.driver import reference, monolithic, barwave
 from solver.errors import StabilityError
 from solver.model import arrays as model_mod
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.partitions.partitioning import check_stability
+from solver.driver.monolithic import reference_scene
 
 
 def check_reference(scene):
     """Refuse an unstable monolithic reference step before the coupled run starts."""
-    from solver.driver.monolithic import reference_scene
     rscene = reference_scene(scene)
     mdl = model_mod.build(rscene)
     layouts = overlap.derive(mdl.graph(), rscene.partitions, [0])
@@ -47,7 +47,6 @@ VANISHING = 1e-3             # eq. 9 skips samples whose reference norm is below
 
 def add_reference(result, mdl, scene, comm, say):
     """Reference histories at the probe times (computed on rank 0) and the errors."""
-    from solver.driver import monolithic
     refs = None
     if comm.rank == 0:
         t_axis = next(iter(result.probes.values()))["t"]
@@ -56,7 +55,6 @@ def add_reference(result, mdl, scene, comm, say):
             u_ref, _ = reference.modal(mdl, dofs, t_axis, damping=scene.damping)
             refs = {p.name: u_ref[:, i] for i, p in enumerate(scene.probes)}
         elif getattr(scene.reference, "kind", "") == "bar_wave":
-            from solver.driver import barwave
             refs = {}
             for p in scene.probes:
                 x = float(mdl.points[p.node][0])
@@ -73,7 +71,6 @@ def add_reference(result, mdl, scene, comm, say):
         pr["reference_displacement"] = ref
         ok = np.isfinite(ref)                 # bar_wave: only until the first reflection
         if f"{probe.name} stress" in refs and "stress" in pr and probe.component == 0:
-            from solver.driver import barwave
             mat = scene.model.material
             pr["reference_stress"] = refs[f"{probe.name} stress"]
             arrive, peak = barwave.stress_errors(pr["t"], pr["stress"], pr["reference_stress"], ok,

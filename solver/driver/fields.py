@@ -24,16 +24,22 @@ drawn over the result.
 """
 from __future__ import annotations
 
+import contextlib
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+import h5py
+
+from solver.driver.observers import Observer
+from solver.model.elements import elastic, _geometry, strain_matrix, FAMILIES
+from solver.model.shell import resultants
+
 
 def _open(xdmf: str):
     """A meshio TimeSeriesWriter whose .h5 sits beside ``xdmf`` (meshio opens it
     relative to the working directory, so enter it from the file's directory)."""
-    import contextlib
-
-    from meshio.xdmf import TimeSeriesWriter
+    from meshio.xdmf import TimeSeriesWriter  # lazy: meshio loads only where fields are written
     with contextlib.chdir(Path(xdmf).parent):
         return TimeSeriesWriter(xdmf).__enter__()
 
@@ -49,9 +55,8 @@ def tensor6(voigt: np.ndarray, kind: str, nu: float) -> np.ndarray:
     return np.stack([xx, xy, zero, yy, zero, zz], axis=1)
 
 
-class FieldWriter:
+class FieldWriter(Observer):
     def __init__(self, scene, mdl, parts, comm, tag: str = "", heating=None):
-        from solver.model.elements import _geometry, strain_matrix
         self.comm = comm
         self.parts = parts
         self.heating = heating
@@ -71,7 +76,6 @@ class FieldWriter:
         points = np.zeros((self.n, 3))
         points[:, :mdl.points.shape[1]] = mdl.points
         self.points = points
-        from solver.model.elements import FAMILIES
         # the FE cells, and a transition band's cells (their stress is that of
         # the displacement they interpolate for their particles)
         blocks = [(fam, conn) for fam, conn, _ in mdl.cells]
@@ -87,7 +91,7 @@ class FieldWriter:
         self.stress_ops = []
         material = scene.model.material
         self.kind, self.nu = material.kind, material.nu
-        D = self.D = material.elastic().D()
+        D = self.D = elastic(material).D()
         for fam, conn in ([] if self.shell else blocks):   # u_e -> cell-averaged stress
             _, dNdx, _ = _geometry(fam, mdl.points[conn])
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
@@ -105,6 +109,15 @@ class FieldWriter:
                                       [("vertex", np.arange(self.particles.size)[:, None])])
             self.writers.append(part_w)
         self.n_open = len(self.writers)
+
+    def after_step(self, step: int, t: float) -> None:
+        """Observer hook: a frame every ``every`` system steps."""
+        if step % self.every == 0:
+            self.write(t)
+
+    def finish(self, step: int, t: float) -> None:
+        """Observer hook: the last frame is the state the run ended in."""
+        self.write_final(t)
 
     def write(self, t: float):
         """A frame of the current state at time ``t`` (collective)."""
@@ -155,7 +168,6 @@ class FieldWriter:
     def _resultants(self, u) -> dict:
         """membrane_force [N/m], moment [N m/m] (element frames) and von_mises
         [Pa] of every shell triangle (solid cells: NaN)."""
-        from solver.model.shell import resultants
         out = {"membrane_force": [], "moment": [], "von_mises": []}
         for (_, conn), wall in zip(self.cells, self.shell_blocks):
             if wall is None:
@@ -199,9 +211,7 @@ def write_cracks(output_file: str, broken: np.ndarray, dim: int) -> list[str]:
     """The broken bonds as a point cloud for ParaView, ``<output stem>_cracks.xdmf``:
     one vertex per bond at its midpoint when it broke, with point data time,
     strain, critical strain and temperature (NaN without heat)."""
-    import contextlib
-
-    import meshio
+    import meshio  # lazy: meshio loads only where fields are written
     xdmf = Path(output_file).resolve().with_suffix("")
     xdmf = Path(f"{xdmf}_cracks.xdmf")
     pts = np.zeros((len(broken), 3))
@@ -227,7 +237,6 @@ def one_collection(xdmf: str):
     Geometry and Topology, every later one includes them from it by XInclude
     (the heavy data are written once), and the Domain holds the collection
     only."""
-    import xml.etree.ElementTree as ET
     ET.register_namespace("xi", XINCLUDE)
     tree = ET.parse(xdmf)
     domain = tree.getroot().find("Domain")
@@ -260,9 +269,6 @@ def name_datasets(xdmf: str):
     beside ``xdmf`` the names the XDMF gives them: attribute ``name``
     (points, cells, displacement, velocity, stress) and, for fields, ``time``
     and ``center`` (Node or Cell)."""
-    import xml.etree.ElementTree as ET
-
-    import h5py
     labels = {}
     for grid in ET.parse(xdmf).getroot().iter("Grid"):
         time = grid.find("Time")

@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.driver.observers import Observer
 
-class Heating:
+
+class Heating(Observer):
     def __init__(self, conduction, parts, scene):
         self.conduction = conduction.start()
         self.parts = parts
@@ -40,6 +42,10 @@ class Heating:
         return (f"heat: conduction on {c.capacity.size} mesh nodes, thermal step {spec.step:g} s "
                 f"(explicit limit {c.critical:.4g} s) every {spec.every} system steps: heating "
                 f"runs {self.scale:.4g} x faster on the mechanical clock{spot}")
+
+    def before_step(self, step: int) -> None:
+        """Observer hook: the temperatures of the system step to come."""
+        self.update(step)
 
     def update(self, s: int):
         """The temperatures for system step s -> s + 1 (at its midpoint).  The
@@ -68,8 +74,8 @@ class Heating:
             part.set_temperature(self.T_node, count=count)
         self._last = th
 
-    def after_step(self):
-        """After every system step: the thermal forces' work over it."""
+    def stepped(self, step: int) -> None:
+        """Observer hook, after every system step: the thermal forces' work over it."""
         for part in self.parts:
             part.track_thermal_work()
 

@@ -18,8 +18,10 @@ import math
 
 import numpy as np
 
+from solver.driver.observers import Observer
 
-class Probes:
+
+class Probes(Observer):
     def __init__(self, probes, parts, owner, n_steps: int, points=None, stress=None):
         """``parts``: this rank's partition pieces; a probe is recorded by the
         piece that owns its node (on exactly one rank).  ``points``: node
@@ -48,6 +50,10 @@ class Probes:
             bv[:k + 1] = v[:k + 1]
             if sigma and probe.name in self._sigma:
                 self._sigma[probe.name][:k + 1] = sigma[0][:k + 1]
+
+    def after_step(self, step: int, t: float) -> None:
+        """Observer hook: record every system step."""
+        self.record(step)
 
     def record(self, k: int):
         for _, _, U, V, i, bu, bv in self._rec:
@@ -90,7 +96,7 @@ class Probes:
         return attrs
 
 
-class EnergyGuard:
+class EnergyGuard(Observer):
     def __init__(self, parts, comm, dt_system: float, every: int, bound: float,
                  max_displacement: float | None = None):
         self.parts = parts
@@ -110,12 +116,22 @@ class EnergyGuard:
         for part in self.parts:
             local += part.energies()
         if self.comm.size > 1:
+            # lazy: importing mpi4py starts MPI; the entry point decides when
             from mpi4py import MPI
             local = self.comm.allreduce(local, op=MPI.SUM)
         for name, value in zip(("kinetic", "strain", "external_work", "dissipated"), local):
             self.series.setdefault(name, []).append(value)
         self.series["t"].append(k * self.dt)
         return local
+
+    def start(self, first: int, last: int) -> None:
+        self.last = last
+
+    def after_step(self, step: int, t: float) -> str | None:
+        """Observer hook: a sample every ``every`` system steps and at the last one."""
+        if step % self.every == 0 or step == self.last:
+            return self.check(step)
+        return None
 
     def check(self, k: int) -> str | None:
         """Sample at system step ``k``; a failure message, or None."""

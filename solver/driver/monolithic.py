@@ -16,6 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from solver.scene import Coupling, Guard, Partition, Time
+from solver.driver.state import fingerprint
+from solver.driver.monitor import Probes
+from solver.model.layout import owner_map
+from solver.driver.build import build
 
 
 def all_nodes(scene) -> tuple[int, ...]:
@@ -39,18 +43,13 @@ def reference_scene(scene):
 def _key(scene) -> str:
     """Everything the reference history depends on: the scene's fingerprint
     (model, loads, probes, reference; networks and continua alike) and time.end."""
-    from solver.driver.state import fingerprint
     h = hashlib.sha256(f"{fingerprint(scene)} {scene.time.end!r}".encode())
     return h.hexdigest()[:20]
 
 
 def history(scene, t_axis, log=None) -> dict:
     """Probe displacement histories of the reference at ``t_axis``: name -> array."""
-    from mpi4py import MPI
-
-    from solver.driver.monitor import Probes
-    from solver.coupling.overlap import owner_map
-    from solver.driver.build import build
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
 
     ref = scene.reference
     cache = Path(scene.output_file).parent / ".reference-cache" / f"{scene.name}-{_key(scene)}.npz"

@@ -105,8 +105,9 @@ def dataset(group, name: str, data):
 
 
 def write(path: str, result, checkpoint=None) -> None:
-    """Write ``result`` (and ``checkpoint`` = (state data, attrs) as /checkpoint)
-    to ``path`` atomically: readers see the old file or the new one, never a part."""
+    """Write ``result`` (and the /checkpoint group: ``checkpoint(f)`` writes it into the
+    open file, see :func:`solver.driver.state.group_writer`) to ``path`` atomically:
+    readers see the old file or the new one, never a part."""
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
@@ -140,8 +141,7 @@ def write(path: str, result, checkpoint=None) -> None:
                 d.attrs["columns"] = (f"t, {where}, strain, critical strain, temperature, "
                                       "node i, node j")
             if checkpoint is not None:
-                from solver.driver.state import write_group
-                write_group(f, *checkpoint)
+                checkpoint(f)
         os.replace(tmp, target)
     finally:
         if tmp.exists():

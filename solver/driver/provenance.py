@@ -6,13 +6,15 @@ import json
 import subprocess
 import sys
 from functools import lru_cache
+from importlib import metadata
 from pathlib import Path
+
+from solver.version import __version__
 
 
 @lru_cache(maxsize=1)
 def versions() -> str:
     """JSON {package: version} of what computed the run."""
-    from importlib import metadata
     out = {"python": sys.version.split()[0]}
     for name in ("numpy", "scipy", "h5py", "meshio", "gmsh", "PyYAML", "mpi4py", "petsc4py"):
         try:                                    # from the installed metadata: nothing imported
@@ -20,13 +22,12 @@ def versions() -> str:
         except metadata.PackageNotFoundError:
             out[name] = "not installed"
     try:
-        from petsc4py import PETSc
+        from petsc4py import PETSc      # lazy: the run's PETSc, initialised by the entry point
         out["PETSc"] = ".".join(map(str, PETSc.Sys.getVersion()))
-        from mpi4py import MPI
+        from mpi4py import MPI          # lazy: importing mpi4py starts MPI
         out["MPI"] = MPI.Get_library_version().splitlines()[0].strip()
     except Exception:                           # noqa: BLE001
         pass
-    from solver import __version__
     out["solver"] = __version__
     return json.dumps(out, sort_keys=True)
 

@@ -3,36 +3,32 @@
 What a system step does is the coupling scheme's business
 (:mod:`solver.coupling.system_step`, :mod:`solver.coupling.gc`); which rank holds what is
 :mod:`solver.partitions.partitioning`'s; what is watched while stepping is
-:mod:`solver.driver.monitor`'s; checkpoints are :mod:`solver.driver.state`'s.
+:mod:`solver.driver.monitor`'s; the step loop tells its observers
+(:mod:`solver.driver.observers`) about every system step; checkpoints are
+:mod:`solver.driver.checkpoint`'s, what a run reports :mod:`solver.driver.report`'s.
 """
 from __future__ import annotations
 
 import os
 import signal
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.driver.build import build
-from solver.driver.comparison import add_reference, check_reference, reference_label
-from solver.errors import RunFailed, SceneError, StabilityError
+from solver.driver.comparison import add_reference, check_reference
+from solver.errors import RunFailed, SceneError, StabilityError, describe
+from solver.driver.checkpoint import Checkpoint
 from solver.driver.monitor import EnergyGuard, Probes
-
-
-@dataclass
-class RunResult:
-    attrs: dict
-    partitions: dict = field(default_factory=dict)
-    probes: dict = field(default_factory=dict)
-    energy: dict = field(default_factory=dict)
-    broken: np.ndarray | None = None     # [n, 6 + dim] t, midpoint, strain, limit, T, i, j
-    heat: dict | None = None             # heating series (t, heating_time, max_temperature)
-
-    @property
-    def status(self) -> str:
-        return self.attrs["status"]
+from solver.driver.observers import Progress
+from solver.driver.report import Report, RunResult
+from solver.driver import output, state, stress, provenance as prov
+from solver.driver.heating import Heating
+from solver.petscutil import check_unused
+from solver.driver.stop import Stopper, Interrupted
+from solver.driver.fields import FieldWriter, write_cracks
+from solver.driver.state import group_writer
 
 
 def _silent(*_):
@@ -41,7 +37,7 @@ def _silent(*_):
 
 def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None = None,
         provenance: dict | None = None, overwrite: bool = False,
-        check_options: bool = False) -> RunResult:
+        check_options: bool = False, store=None, measure_wait: bool = False) -> RunResult:
     """Run ``scene`` on ``comm`` (default COMM_WORLD); rank 0 writes the output.
 
     ``restart``: an output file with a checkpoint of this scene; the run goes on
@@ -50,11 +46,12 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     ``overwrite``: a fresh run may replace an output file that holds a
     checkpoint (refused otherwise).  ``check_options``: PETSc options that no
     object of the built run uses are refused before stepping (the command
-    line's choice; scripts may set options for other objects of their own)."""
-    from mpi4py import MPI
-
-    from solver.driver import output
-    from solver.driver import state
+    line's choice; scripts may set options for other objects of their own).
+    ``store``: the :class:`~solver.model.data.ModelData` the scene was bound with
+    (the model build reuses it; None: read afresh).  ``measure_wait``: a barrier
+    before every exchange, timing the wait for the slower rank apart
+    (``exchange_wait_time_per_rank``; ``-exchange_measure_wait`` on the command line)."""
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
 
     t_start = time.perf_counter()
     comm = comm or MPI.COMM_WORLD
@@ -75,12 +72,11 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         problem = comm.bcast(problem)
         if problem:
             raise problem
-    asm = build(scene, comm, say)
+    asm = build(scene, comm, say, store, measure_wait)
     mdl, parts, scheme = asm.model, asm.parts, asm.scheme
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 
     owner = overlap.owner_map(mdl.n_nodes, scene.partitions)
-    from solver.driver import stress
     probes = Probes(scene.probes, parts, owner, n_sys, mdl.points,
                     stress.build(scene, mdl, parts))
     for probe in scene.probes:
@@ -91,7 +87,6 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
                 f"{[float(f'{c:.6g}') for c in xyz]} ({gap:.3g} m away)")
     heating = None
     if mdl.heat is not None:
-        from solver.driver.heating import Heating
         heating = Heating(mdl.heat, parts, scene)
         say(f"[solver]   {heating.describe()}")
         if probes.stress is not None:
@@ -107,15 +102,12 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         if heating is not None and saved.get("heat") is not None:
             heating.restore(saved["heat"])
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
-    from solver.driver import provenance as prov
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start, heating)
     report.extra = {"versions": prov.versions(), "commit": prov.commit(), **model_counts(mdl, comm),
                     **(provenance or {})}
     if check_options:
-        from solver.petscutil import check_unused
         check_unused(comm, [p.name for p in scene.partitions])
     report.setup_wall = time.perf_counter() - t_start
-    from solver.driver.stop import Stopper
     # from the first write on, an interrupt is a flag the step loop polls (the
     # output is kept); a second one stops at once
     with Stopper(comm, start) as stop:
@@ -124,27 +116,27 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
 
 def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start):
     """The run from its first output on: checkpoint, fields, stepping, the final output."""
-    from solver.driver import output
     rank, mdl, parts, scheme = comm.rank, asm.model, asm.parts, asm.scheme
     Dt = scene.system_dt
     spec = scene.output.checkpoint if scene.output else None
     checkpoint = Checkpoint(spec.every, scene, parts, guard, comm, report) if spec else None
     if checkpoint:
-        checkpoint(start, 0.0)
+        checkpoint.write(start, 0.0)
 
     fields = None
     if scene.output and scene.output.fields:
-        from solver.driver.fields import FieldWriter
         fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "",
                              heating=heating)
         fields.write(start * Dt)
+    # in the order they see a system step: a guard failure writes no checkpoint
+    observers = [o for o in (heating, probes, fields, guard, checkpoint) if o is not None]
+    progress = scene.output.progress if scene.output else 10.0
+    if rank == 0 and progress:
+        observers.append(Progress(say, progress, guard, Dt))
     stop.where = "stepping"
     try:
         failure, done, loop_wall, interrupted = step_loop(
-            scene, scheme, probes, guard, say if rank == 0 else None, comm, stop, fields, start,
-            checkpoint, heating)
-        if fields:                  # the last frame is the state the run ended in
-            fields.write_final(done * Dt)
+            scheme, observers, stop, start, scene.n_system_steps, Dt, comm.rank)
     finally:
         if fields:
             fields.close()
@@ -157,7 +149,6 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     if fields and rank == 0:
         written = fields.written()
         if result.broken is not None and len(result.broken):
-            from solver.driver.fields import write_cracks
             written += write_cracks(scene.output_file, result.broken, mdl.dof)
         result.attrs["field_files"] = np.array(written, dtype=object)
     if scene.reference != "none" and not failure and result.probes:
@@ -167,9 +158,8 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     final = checkpoint.final(done, failure) if checkpoint else None
     asm.destroy()
     if rank == 0:
-        output.write(scene.output_file, result, checkpoint=final)
+        output.write(scene.output_file, result, checkpoint=group_writer(final))
     comm.barrier()
-    from solver.driver.stop import Interrupted
     if failure:
         raise (Interrupted if interrupted else RunFailed)(
             f"{scene.name}: {failure}; output marked failed: {scene.output_file}")
@@ -180,41 +170,6 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     return result
 
 
-class Checkpoint:
-    """Writes the output file with the run state (:mod:`solver.driver.state`) every
-    ``every`` system steps, status running, atomically."""
-
-    def __init__(self, every, scene, parts, guard, comm, report):
-        from solver.driver.state import fingerprint
-        self.every, self.scene, self.parts, self.guard = every, scene, parts, guard
-        self.comm, self.report = comm, report
-        self.meta = {"fingerprint": fingerprint(scene), "scene": scene.name}
-
-    def __call__(self, k: int, wall: float):
-        from solver.driver import output
-        from solver.driver import state
-        data = state.collect(k, self.parts, self.guard, self.comm, self.report.asm.scheme)
-        result = self.report.result(k, "running", "", wall)
-        if self.comm.rank == 0:
-            self.last = (data, self.meta)
-            output.write(self.scene.output_file, result, checkpoint=self.last)
-
-    def final(self, done: int, failure):
-        """What the final file keeps: the state at ``done`` (collective), or after
-        a failure the last checkpoint written (rank 0; None elsewhere)."""
-        from solver.driver.state import collect
-        if failure:
-            return getattr(self, "last", None)
-        data = collect(done, self.parts, self.guard, self.comm, self.report.asm.scheme)
-        return (data, self.meta) if data is not None else None
-
-
-def peak_rss_mb() -> float:
-    """Peak resident memory of this process so far [MB]."""
-    import resource
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def energy_every(scene) -> int:
     """System steps between energy samples: output.energy_every, or at least 100
     samples per run, at most one per 10 system steps once a run has 1000 of
@@ -223,92 +178,6 @@ def energy_every(scene) -> int:
         return scene.output.energy_every
     n = scene.n_system_steps
     return max(1, n // 2000, min(10, n // 100))
-
-
-class Report:
-    """The run's results so far (probes, energies, partition attributes),
-    gathered on every rank: for checkpoints and the final output."""
-
-    def __init__(self, scene, asm, probes, guard, comm, scene_text, t_start, heating=None):
-        self.scene, self.asm, self.probes, self.guard = scene, asm, probes, guard
-        self.heating = heating
-        self.comm, self.scene_text, self.t_start = comm, scene_text, t_start
-        self.extra = {}
-
-    def result(self, done: int, status: str, message: str, loop_wall: float) -> RunResult:
-        scene, comm, parts = self.scene, self.comm, self.asm.parts
-        freqs = self.asm.freqs
-        n_sys, Dt = scene.n_system_steps, scene.system_dt
-        x_wall = self.asm.scheme.clocks.exchange_wall
-        local_parts = {part.name: {
-            "method": part.method, "integrator": part.integrator.describe(),
-            "ratio": part.spec.ratio, "dt": part.dt, "steps": part.steps, "wall_time": part.wall,
-            "n_owned": part.layout.n_owned, "n_external": int(part.layout.external.size),
-            "layers": len(part.layout.layers), "boundary": part.layout.boundary,
-            "omega_max": freqs[part.name][0].omega_max,
-            "critical_step": freqs[part.name][1],
-            "exchange_wall_time": x_wall, **bond_attrs(part)} for part in parts}
-        t_axis = np.arange(n_sys + 1) * Dt
-        gathered, part_attrs = {}, {}
-        for pr, pa in comm.allgather((self.probes.histories(t_axis, done), local_parts)):
-            gathered.update(pr)
-            for name, attrs in pa.items():       # pieces of one partition on several ranks
-                if name in part_attrs:
-                    merged = part_attrs[name]
-                    merged["ranks"] += 1
-                    for key in ("n_owned", "n_external", "bonds_broken", "released_energy"):
-                        if key in merged:
-                            merged[key] += attrs[key]
-                    merged["boundary"] = np.sort(np.concatenate([merged["boundary"],
-                                                                 attrs["boundary"]]))
-                    for key in ("wall_time", "exchange_wall_time"):
-                        merged[key] = max(merged[key], attrs[key])
-                else:
-                    part_attrs[name] = {**attrs, "ranks": 1}
-        histories = {p.name: gathered[p.name] for p in scene.probes}
-        part_attrs = {p.name: part_attrs[p.name] for p in scene.partitions}
-        attrs = {"scene": scene.name, "status": status, "message": message, "ranks": comm.size,
-                 "wall_time": time.perf_counter() - self.t_start, "stepping_wall_time": loop_wall,
-                 "setup_wall_time": self.setup_wall,
-                 "peak_rss_mb_per_rank": np.array(comm.allgather(peak_rss_mb())),
-                 "exchange_wall_time": max(comm.allgather(x_wall)),
-                 "exchange_wall_time_per_rank": np.array(comm.allgather(x_wall)),
-                 **wait_attrs(self.asm.scheme.clocks, comm),
-                 "scheme": scene.coupling.scheme, "external_treatment": scene.coupling.external,
-                 "system_dt": Dt, "base_dt": scene.time.dt, "n_system_steps": done,
-                 "t_end": done * Dt, "reference": reference_label(scene),
-                 "scene_yaml": self.scene_text, **self.extra}
-        for name, pa in part_attrs.items():
-            attrs[f"steps_{name}"] = pa["steps"]
-            attrs[f"wall_time_{name}"] = pa["wall_time"]
-        if self.heating is not None:
-            attrs["heating_time_scale"] = self.heating.scale
-        return RunResult(attrs, part_attrs, histories, self.guard.arrays(), broken_bonds(parts, comm),
-                         self.heating.arrays() if self.heating is not None else None)
-
-
-def bond_attrs(part) -> dict:
-    """Breakable bonds of a piece: how many broke, the energy they released."""
-    force = part.force
-    if not hasattr(force, "broken"):
-        return {}
-    return {"bonds_broken": len(force.broken), "released_energy": force.released}
-
-
-def broken_bonds(parts, comm):
-    """Every broken bond of the run, by time (rank 0), or None without breakable bonds."""
-    local = [row for p in parts for row in getattr(p.force, "broken", [])]
-    breakable = any(getattr(p.force, "break_strain", None) is not None for p in parts)
-    if comm.size > 1:
-        chunks = comm.gather((breakable, local), root=0)
-        if comm.rank != 0:
-            return None
-        breakable = any(b for b, _ in chunks)
-        local = [row for _, rows in chunks for row in rows]
-    if not breakable:
-        return None
-    rows = np.array(sorted(local), dtype=float)
-    return rows if rows.size else np.zeros((0, 0))
 
 
 def body_size(mdl, comm) -> float | None:
@@ -331,34 +200,31 @@ def model_counts(mdl, comm) -> dict:
     return comm.bcast(counts) if comm.size > 1 else counts
 
 
-def step_loop(scene, scheme, probes, guard, say, comm, stop, fields=None, start=0,
-              checkpoint=None, heating=None):
-    """Advance system steps from ``start`` to the end, the first guard failure,
-    a partition's failure or an interrupt on any rank (all ranks stop at the
-    same step, :mod:`solver.driver.stop`: ``stop``, the run's Stopper, holds the
-    signals and failures); ``checkpoint(k, wall)`` every
-    ``checkpoint.every`` system steps.
+def step_loop(scheme, observers, stop, start: int, n_steps: int, dt: float, rank: int = 0):
+    """Advance system steps from ``start`` to ``n_steps``, telling the ``observers``
+    (:mod:`solver.driver.observers`; probes, guard, fields, heating, checkpoints,
+    progress) about each, until the end, an observer's failure, a partition's
+    failure or an interrupt on any rank (all ranks stop at the same step,
+    :mod:`solver.driver.stop`: ``stop``, the run's Stopper, holds the signals and
+    failures).
 
     Returns (failure message or None, system steps done, stepping wall time,
     interrupted)."""
-    from solver.driver.stop import describe
-    n_sys, Dt = scene.n_system_steps, scene.system_dt
-    progress = (scene.output.progress if scene.output else 10.0) if say else 0.0
-    every = guard.every
-    ck_every = checkpoint.every if checkpoint else 0
     clock = time.perf_counter
-    t_loop = last = clock()
+    for ob in observers:
+        ob.start(start, n_steps)
+    t_loop = clock()
     failure, k, interrupted = None, start, False
     failures = scheme.clocks.failures
     # fault injection for the tests: rank 0 sends itself SIGTERM after this system step
-    kill_at = int(os.environ.get("MTS_SIGTERM_AT_STEP", "-1")) if comm.rank == 0 else -1
-    for s in range(start, n_sys):
+    kill_at = int(os.environ.get("MTS_SIGTERM_AT_STEP", "-1")) if rank == 0 else -1
+    for s in range(start, n_steps):
         try:
-            if heating is not None:
-                heating.update(s)
-            scheme.step(s * Dt)
-            if heating is not None:
-                heating.after_step()
+            for ob in observers:
+                ob.before_step(s)
+            scheme.step(s * dt)
+            for ob in observers:
+                ob.stepped(s + 1)
         except Exception as e:              # noqa: BLE001 -- stop together, keep the output
             stop.fail(s + 1, describe(e))
         k = s + 1
@@ -366,47 +232,20 @@ def step_loop(scene, scheme, probes, guard, say, comm, stop, fields=None, start=
             os.kill(os.getpid(), signal.SIGTERM)
         if failures:
             stop.fail(k, failures[0])
-        if stop.due(k) or (ck_every and k % ck_every == 0):
+        if stop.due(k) or any(ob.needs_poll(k) for ob in observers):
             ended = stop.poll(k)
             if ended:
                 k, failure, interrupted = ended
                 break
-        failure = _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every,
-                             t_loop)
+        for ob in observers:
+            failure = ob.after_step(k, k * dt)
+            if failure:
+                break
         if failure:
             break
-        if progress and (k & 255) == 0 and clock() - last >= progress:
-            last = clock()
-            frac, el = (k - start) / (n_sys - start), last - t_loop
-            say(f"[solver] t = {k * Dt:.6g}/{n_sys * Dt:.6g} s ({100 * k / n_sys:.0f}%), "
-                f"{el:.1f} s elapsed, about {el * (1 - frac) / frac:.1f} s to go; "
-                f"{guard.latest()}")
+    for ob in observers:
+        ob.finish(k, k * dt)
     return failure, k, clock() - t_loop, interrupted
-
-
-def _step_tail(scene, k, probes, guard, fields, checkpoint, every, ck_every, t_loop):
-    """After system step ``k``: record probes, write fields, check the guard,
-    write a checkpoint; a guard failure message or None."""
-    n_sys, Dt = scene.n_system_steps, scene.system_dt
-    probes.record(k)
-    if fields and k % fields.every == 0:
-        fields.write(k * Dt)
-    if k % every == 0 or k == n_sys:
-        failure = guard.check(k)
-        if failure:
-            return failure
-    if ck_every and k % ck_every == 0 and k < n_sys:
-        checkpoint(k, time.perf_counter() - t_loop)
-    return None
-
-
-def wait_attrs(clocks, comm) -> dict:
-    """``exchange_wait_time_per_rank`` when the run measured it (-exchange_measure_wait)."""
-    wait = getattr(clocks, "wait_wall", None)
-    waits = comm.allgather(wait)
-    if any(w is None for w in waits):
-        return {}
-    return {"exchange_wait_time_per_rank": np.array(waits)}
 
 
 def _seconds(values) -> str:

@@ -24,8 +24,14 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+from pathlib import Path
 
 import numpy as np
+import h5py
+
+from solver.driver.output import dataset
+from solver.collective import on_root
+from solver.errors import SceneError
 
 FORMAT = "mts-checkpoint 1"
 
@@ -116,9 +122,16 @@ def restore(data: dict, parts, scheme, guard):
     guard.restore(data["guard"])
 
 
+def group_writer(checkpoint):
+    """For :func:`solver.driver.output.write`: a function of the open file that writes
+    ``checkpoint`` = (data, meta) as /checkpoint, or None without one."""
+    if checkpoint is None:
+        return None
+    return lambda f: write_group(f, *checkpoint)
+
+
 def write_group(f, data: dict, meta: dict):
     """Write ``data`` (from :func:`collect`) as group /checkpoint of open h5py file ``f``."""
-    from solver.driver.output import dataset
     g = f.create_group("checkpoint")
     g.attrs["format"] = FORMAT
     g.attrs["step"] = data["step"]
@@ -144,7 +157,6 @@ def write_group(f, data: dict, meta: dict):
 def attrs_digest(group) -> str:
     """sha256 of the checkpoint's scalar attributes (the datasets carry Fletcher32
     checksums of their own): a flipped step count or work is refused too."""
-    import h5py
     items = []
 
     def visit(name, obj):
@@ -164,16 +176,10 @@ def read(path: str, scene, comm) -> dict:
 
     Refuses (SceneError naming the file) a missing, non-HDF5, truncated or
     foreign file, one without a checkpoint, or one written for another scene."""
-    from solver.collective import on_root
     return on_root(comm, _read, path, scene)
 
 
 def _read(path: str, scene) -> dict:
-    from pathlib import Path
-
-    import h5py
-
-    from solver.errors import SceneError
     where = f"--restart {path}"
     if not Path(path).is_file():
         raise SceneError(f"{where}: file not found")

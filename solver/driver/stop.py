@@ -16,7 +16,9 @@ aborts at once (MPI_Abort with exit code 130).
 """
 from __future__ import annotations
 
+import os
 import signal
+import sys
 import time
 
 from solver.errors import RunFailed
@@ -29,13 +31,6 @@ class Interrupted(RunFailed):
     """SIGINT or SIGTERM during stepping: the output is kept, marked failed."""
 
     exit_code = 130
-
-
-def describe(error: BaseException) -> str:
-    """One line for any exception raised while a partition steps."""
-    text = str(error).strip().splitlines()
-    line = text[-1] if text else type(error).__name__
-    return line if isinstance(error, RunFailed) else f"{type(error).__name__}: {line}"
 
 
 _setup = {"mpi": False, "pending": None}
@@ -141,15 +136,13 @@ class Stopper:
 
 
 def _max():
-    from mpi4py import MPI
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
     return MPI.MAX
 
 
 def abort(comm, message: str | None, code: int):
     """Print ``message`` (if any) once from this rank and end every rank with ``code``
     (MPI_Abort; MPICH's own abort notice is silenced)."""
-    import os
-    import sys
     if message:
         try:
             os.write(2, f"error: {message}\n".encode())

@@ -24,13 +24,13 @@ from __future__ import annotations
 import numpy as np
 
 from solver.petscutil import init, vec_on
+from solver.model.elements import _geometry, strain_matrix
 
 
 def fe_row(mdl, node: int, c: int, thermal=None):
     """(nodes, coefficients [len(nodes), dim]) of sigma_cc at mesh node ``node``;
     ``thermal`` (a list) receives (nodes, weights) with sigma_th = -alpha sum w dT
     (each cell's D eps_th at its mean temperature)."""
-    from solver.model.elements import _geometry, strain_matrix
     D = mdl.material_D
     dim = mdl.dof
     nodes, coefs, n_cells = [], [], 0

@@ -17,17 +17,9 @@ import numpy as np
 from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
 from solver.model.interface import Lattice, Shells
-from solver.model.loads import LoadFunction, load_function
+from solver.model.loads import PointLoad, load_function
 from solver.scene import Scene
-
-
-@dataclass(frozen=True)
-class PointLoad:
-    """A time function times ``scale`` applied to one DOF."""
-
-    dof: int
-    function: LoadFunction
-    scale: float = 1.0
+from solver.model import continuum, data as model_data
 
 
 @dataclass(frozen=True)
@@ -163,22 +155,21 @@ def dof_masses(model, held) -> np.ndarray:
     return m
 
 
-def build(scene: Scene, layers=None):
+def build(scene: Scene, layers=None, store=None):
     """Arrays of the scene's model (network or continuum).  ``layers``: external
     layers of every partition, as the coupling scheme's treatments give them
-    (a lattice reaches as far as its dem partitions' layers; default 1)."""
+    (a lattice reaches as far as its dem partitions' layers; default 1).
+    ``store``: the run's :class:`~solver.model.data.ModelData` (None: read afresh)."""
     if scene.model.kind == "continuum":
-        from solver.model import continuum
         reach = max([n for n, p in zip(layers or [], scene.partitions) if p.method == "dem"]
                     or [1])
-        return continuum.build(scene, reach)
-    return build_network(scene)
+        return continuum.build(scene, reach, store)
+    return build_network(scene, store)
 
 
-def build_network(scene: Scene) -> Model:
+def build_network(scene: Scene, store=None) -> Model:
     """Arrays of the scene's network model."""
-    from solver.model import data as model_data
-    net = model_data.read(scene.model)
+    net = (store if store is not None else model_data.ModelData()).read(scene.model)
     n, dof = net.mass.size, 1
     u0, v0 = np.zeros(n), np.zeros(n)
     for node, value in scene.initial.displacement.items():

@@ -1,6 +1,10 @@
 """The scene bound to its model data: the checks that need the mesh or the
 network, and the resolved scene the later stages run.
 
+The scene stage parses and validates its own keys and reads no model data;
+:func:`load`, :func:`load_with_text` and :func:`from_dict` here parse and bind,
+for the entry points (:mod:`solver.tools.cli`, :mod:`solver.tools.api`).
+
 :func:`bind` reads the model data once (:mod:`solver.model.data`), checks
 every key that refers to it (physical groups, node ids, components, load
 directions, the material against the mesh's dimension, each node owned by
@@ -16,8 +20,11 @@ import numpy as np
 from solver.model import data as model_data
 from solver.model.elements import FAMILIES
 from solver.model.shell_model import SHELL3
+from solver.scene import file as scene_file
 from solver.scene.model_spec import DOF_NAMES
 from solver.scene.schema import fail, shown
+from solver.model.shell_model import triangles
+from solver.model.boundary import fixed_dofs
 
 
 def dof(scene, data) -> int:
@@ -28,13 +35,31 @@ def dof(scene, data) -> int:
     return 6 if scene.model.material.kind == "shell" or scene.model.shells else data.dim
 
 
-def bind(scene):
-    """``scene`` checked against its model data, groups and probe points resolved."""
-    data = model_data.read(scene.model)
+def from_dict(raw: dict, store=None):
+    """A scene from plain data, parsed (:func:`solver.scene.file.from_dict`) and bound."""
+    return bind(scene_file.from_dict(raw), store)
+
+
+def load(path, overrides=(), store=None):
+    """A scene file read with ``key.path=value`` overrides, parsed and bound."""
+    return load_with_text(path, overrides, store)[0]
+
+
+def load_with_text(path, overrides=(), store=None):
+    """(the bound scene, the effective scene as YAML); errors name the file."""
+    return scene_file.load_with_text(path, overrides, then=lambda scene: bind(scene, store))
+
+
+def bind(scene, store=None):
+    """``scene`` checked against its model data, groups and probe points resolved.
+    ``store``: the run's :class:`~solver.model.data.ModelData` (the model build
+    reuses what binding read), or None to read afresh."""
+    store = store if store is not None else model_data.ModelData()
+    data = store.read(scene.model)
     continuum = scene.model.kind == "continuum"
     zone = None
     if continuum:
-        zone = _check_continuum(scene.model, data)
+        zone = _check_continuum(scene.model, data, store)
     n, d = model_data.n_nodes(data), dof(scene, data)
     if zone is not None:
         n += zone.n_core
@@ -94,7 +119,7 @@ def _traction(ld, path, mesh, space):
     return ld
 
 
-def _check_continuum(spec, mesh):
+def _check_continuum(spec, mesh, store):
     mesh.group(spec.body, "model.body")
     for name in spec.fixed:
         mesh.group(name, "model.fixed")
@@ -105,7 +130,6 @@ def _check_continuum(spec, mesh):
         wants = "solid" if mesh.dim == 3 else ("plane_stress", "plane_strain", "shell")
         fail("model.material.kind", f"{kind} does not fit a {mesh.dim}D mesh "
              f"(use {wants})")
-    from solver.model.shell_model import triangles
     if kind == "shell":
         triangles(mesh, spec.body, "model.body")
     if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
@@ -124,8 +148,7 @@ def _check_continuum(spec, mesh):
             fail(f"model.constraints[{i}].dofs", f"{bad[0]} does not exist: a {kind} model's "
                  f"nodes have {', '.join(names)}")
     if spec.lattice is not None and spec.lattice.transition:
-        from solver.model import transition
-        return transition.of(spec, mesh)
+        return store.transition(spec, mesh)
     return None
 
 
@@ -136,7 +159,6 @@ def _check_wall(mesh, group, thickness, key):
     """A shell's thickness against its element size: bending goes as t^3 and a
     node's rotary inertia as t^3 A, so a wall a millionth of its elements' size
     or thinner is no shell to step (t^3 underflows, the step has no scale)."""
-    from solver.model.shell_model import triangles
     conn, _ = triangles(mesh, group, key)
     tri = mesh.points[conn]
     edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
@@ -150,7 +172,6 @@ def _check_wall(mesh, group, thickness, key):
 def _check_free(scene, data, owned, d):
     """Every partition has a DOF that moves: a partition whose every node has
     every DOF held (model.fixed, model.constraints) has nothing to step."""
-    from solver.model.continuum import fixed_dofs
     n_mesh = model_data.n_nodes(data)
     held = fixed_dofs(scene, data, n_mesh, d).reshape(n_mesh, d)
     spec = scene.model

@@ -17,13 +17,15 @@ from typing import ClassVar
 import numpy as np
 
 from solver.laws import CONTACT_LAWS, ContactSettings
-from solver.model import data as model_data
-from solver.partitions.assembly import group_matrices, kept, nodal
-from solver.model.loads import load_function
-from solver.model.arrays import PointLoad
+from solver.model import data as model_data, heat, shell_model
+from solver.model.cell_blocks import group_matrices, kept, nodal
+from solver.model.boundary import facet_forces, facet_weights, fixed_dofs, load_list  # noqa: F401
 from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
+from solver.model.elements import elastic
 from solver.model.interface import Lattice, Shells
+from solver.errors import SceneError
+from solver.model.lattice import cubic, merge, square
 
 
 @dataclass(frozen=True)
@@ -144,7 +146,7 @@ class ContinuumArrays:
 
 class BondStiffness:
     """Blocks k n n^T [[1, -1], [-1, 1]] of central bonds, computed when asked
-    (``blocks[idx]``), like :class:`solver.partitions.assembly.CellStiffness`."""
+    (``blocks[idx]``), like :class:`solver.model.cell_blocks.CellStiffness`."""
 
     def __init__(self, points, conn, k):
         self.points, self.conn, self.k = points, conn, k
@@ -160,56 +162,12 @@ class BondStiffness:
         return np.block([[nn, -nn], [-nn, nn]])
 
 
-_g, _w = np.polynomial.legendre.leggauss(3)
-GAUSS3 = np.array([[a, b] for b in _g for a in _g])             # 3x3 Gauss points on [-1, 1]^2
-GAUSS3_W = np.array([wa * wb for wb in _w for wa in _w])
-
-
-def facet_weights(fam, X) -> np.ndarray | None:
-    """w_ea = integral of N_a over each facet [n_el, k] (X [n_el, k, space]); None
-    for cells that are not facets.  Lines and triangles are exact in closed form
-    (length/2, area/3); a quad4 face is integrated with 3x3 Gauss points over
-    its bilinear map, |dx/dxi x dx/deta| N_a (exact on a plane face, whatever its
-    shape: a trapezoid's nodes do not get area/4 each; close on a warped one)."""
-    from solver.model.elements import CELLS
-    family = CELLS.get(fam)
-    if family is None or family.dim not in (1, 2):
-        return None
-    if family.dim == 1:
-        return np.repeat(0.5 * np.linalg.norm(X[:, 1] - X[:, 0], axis=1)[:, None], 2, axis=1)
-    if family.simplex:
-        e1, e2 = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
-        cross = np.cross(e1, e2) if X.shape[2] == 3 else e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        area = 0.5 * (np.linalg.norm(cross, axis=1) if X.shape[2] == 3 else np.abs(cross))
-        return np.repeat(area[:, None] / 3, 3, axis=1)
-    N, dN = family.shape(GAUSS3)                                 # [q, a], [q, a, 2]
-    T = np.einsum("qai,eaj->eqij", dN, X)                        # tangents dx/dxi_i [e, q, i, x]
-    if X.shape[2] == 3:
-        dA = np.linalg.norm(np.cross(T[:, :, 0], T[:, :, 1]), axis=2)
-    else:
-        dA = np.abs(np.linalg.det(T))
-    return np.einsum("eq,q,qa->ea", dA, GAUSS3_W, N)
-
-
-def facet_forces(mesh, group_name, where):
-    """Nodal weights w_a = integral of N_a over the group's facets: [n_nodes]."""
-    group = mesh.group(group_name, where)
-    w = np.zeros(len(mesh.points))
-    for fam, conn in group.cells.items():
-        we = facet_weights(fam, mesh.points[conn])
-        if we is not None:
-            w += np.bincount(conn.ravel(), weights=we.ravel(), minlength=len(w))
-    return w
-
-
 def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     """Bonds, overlap cells and particle masses of the scene's lattice on the mesh
     nodes that coincide with its sites: (bonds, overlap cells, mass with particle
     masses for dem-owned nodes).  The lattice reaches ``reach`` spacings beyond
     its region (the external layers of the dem partitions, which the coupling
     stage decides), so that external particles carry their bonds."""
-    from solver.errors import SceneError
-    from solver.model.lattice import cubic, merge, square
     spec, mat = scene.model.lattice, scene.model.material
     region = mesh.group(spec.region, "model.lattice.region")
     pts = mesh.points
@@ -274,39 +232,36 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     return (bi, bj, bk), overlap, mass
 
 
-def build(scene, reach: int = 1) -> ContinuumArrays:
+def build(scene, reach: int = 1, store=None) -> ContinuumArrays:
     """The continuum model; ``reach``: external layers of dem partitions (lattice
     extent).  It carries the notes of reading its mesh (duplicates removed,
     entities reoriented), which the run logs."""
-    mesh = model_data.read(scene.model)
-    arrays = _build(scene, mesh, reach)
+    store = store if store is not None else model_data.ModelData()
+    mesh = store.read(scene.model)
+    arrays = _build(scene, mesh, reach, store)
     return dataclasses.replace(arrays, notes=mesh.notes) if mesh.notes else arrays
 
 
-def _build(scene, mesh, reach):
+def _build(scene, mesh, reach, store):
     spec = scene.model
     shells = spec.material.kind == "shell" or spec.shells
     if shells and scene.heat is not None:
-        from solver.errors import SceneError
         raise SceneError("heat: models with shells carry no heat (conduction needs plane or "
                          "solid cells)")
     if spec.material.kind == "shell":
-        from solver.model import shell_model
-        return shell_model.build(scene, mesh)
+        return ContinuumArrays(**shell_model.build(scene, mesh))
     dim = mesh.dim
-    mat = spec.material.elastic()
+    mat = elastic(spec.material)
     zone = None
     if spec.lattice is not None and spec.lattice.transition:
-        from solver.model import transition
-        zone = transition.of(spec, mesh)
+        zone = store.transition(spec, mesh)
     cells, mass = [], np.zeros(len(mesh.points))
     for fam, conn, Ke, me in group_matrices(mesh, spec.body, mat, "model.body",
                                             only=None if zone is None else zone.fe_cells):
         cells.append((fam, conn, Ke))
         mass += nodal(me, conn, len(mesh.points))
     if spec.shells:
-        from solver.model import shell_model
-        return shell_model.build_mixed(scene, mesh, cells, mass)
+        return ContinuumArrays(**shell_model.build_mixed(scene, mesh, cells, mass))
     if zone is not None:
         arrays = _with_zone(scene, mesh, zone, cells, mass + zone.node_mass)
         return _with_heat(arrays, scene, mesh, zone.points)
@@ -331,7 +286,6 @@ def _with_heat(arrays, scene, mesh, particles=None):
     """The model with its conduction model (scene key ``heat``), if any."""
     if scene.heat is None:
         return arrays
-    from solver.model import heat
     return dataclasses.replace(arrays, heat=heat.build(scene, mesh, particles, arrays.n_nodes))
 
 
@@ -348,24 +302,8 @@ def contact_of(lat):
                            tangential_damping_ratio=c.tangential_damping_ratio)
 
 
-def fixed_dofs(scene, mesh, n_nodes, dof):
-    """[n_nodes * dof] bool: every DOF of ``model.fixed`` groups, and the chosen
-    DOFs (ux uy uz rx ry rz) of ``model.constraints``."""
-    from solver.scene.model_spec import DOF_NAMES
-    fixed = np.zeros(n_nodes * dof, bool)
-    for name in scene.model.fixed:
-        nodes = mesh.group(name, "model.fixed").nodes
-        fixed[(nodes[:, None] * dof + np.arange(dof)).ravel()] = True
-    for i, c in enumerate(scene.model.constraints):
-        nodes = mesh.group(c.group, f"model.constraints[{i}].group").nodes
-        comps = np.array([DOF_NAMES.index(d) for d in c.dofs])
-        fixed[(nodes[:, None] * dof + comps).ravel()] = True
-    return fixed
-
-
 def _with_zone(scene, mesh, zone, cells, mass):
     """The model of a transition band: mesh nodes, then the core particles."""
-    from solver.errors import SceneError
     dim = mesh.dim
     band_nodes = np.unique(np.concatenate([c.ravel() for c in zone.band_cells.values()]))
     massless = band_nodes[mass[band_nodes] <= 0]
@@ -383,26 +321,8 @@ def _with_zone(scene, mesh, zone, cells, mass):
                            fixed=fixed_dofs(scene, mesh, n_nodes, dim),
                            loads=tuple(load_list(scene, mesh, dim, dim)),
                            u0=np.zeros(n), v0=np.zeros(n),
-                           material_D=scene.model.material.elastic().D(),
+                           material_D=elastic(scene.model.material).D(),
                            lattice=Lattice(bonds=zone.bonds, carried=zone.blocks,
                                            geometry=lat.geometry, break_strain=lat.break_strain),
                            contact=contact_of(lat), zone=zone)
 
-
-def load_list(scene, mesh, dof, space):
-    """PointLoads of the scene: group loads as the nodal forces of their facets
-    (:func:`facet_forces`) along ``direction`` (``space`` components), node
-    loads on DOF ``component`` (``dof`` per node)."""
-    loads = []
-    for i, load in enumerate(scene.loads):
-        g = load_function(load)
-        direction = np.asarray(load.direction or [1.0] + [0.0] * (space - 1), dtype=float)
-        if load.group is not None:
-            w = facet_forces(mesh, load.group, f"loads[{i}].group")
-            for node in np.flatnonzero(w):
-                for c in range(space):
-                    if direction[c]:
-                        loads.append(PointLoad(int(node) * dof + c, g, float(w[node] * direction[c])))
-        else:
-            loads.append(PointLoad(load.node * dof + (load.component or 0), g))
-    return loads

@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from solver.model import layout as overlap
+
 SHOWN = 3                # elements listed per partition
 CHUNK = 32768            # cells measured at a time (bounds the temporaries)
 
@@ -220,7 +222,6 @@ def partition_lines(scene, mdl, owner) -> list[str]:
 
 def lines(scene, mdl) -> list[str]:
     """The set-up lines: total mass, materials, each partition's smallest steps."""
-    from solver.coupling import overlap
     out = [f"model: total mass {total_mass(mdl):.6g} kg over {mdl.n_nodes} nodes"]
     mat = describe_materials(scene)
     if mat:

@@ -238,6 +238,12 @@ class Elastic:
         return self.thickness if self.kind == "plane_stress" else 1.0
 
 
+def elastic(material) -> Elastic:
+    """The law of a scene's ``model.material`` (thickness 1 where it gives none)."""
+    return Elastic(material.E, material.nu, material.rho, material.kind,
+                   material.thickness if material.thickness is not None else 1.0)
+
+
 class BadElement(ValueError):
     def __init__(self, index: int, detj: float, corner: int | None = None):
         what = ("inverted or degenerate" if corner is None else

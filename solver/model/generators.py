@@ -91,7 +91,7 @@ def from_file(path: str) -> Network:
     ``spring_j`` (-1 = ground) and ``stiffness``."""
     names = ("mass", "spring_i", "spring_j", "stiffness")
     if path.endswith((".h5", ".hdf5")):
-        import h5py
+        import h5py  # lazy: h5py loads only for a model.file network (keys/schemes start fast)
         try:
             f = h5py.File(path, "r")
         except OSError as e:                   # h5py's message does not name the file
@@ -129,3 +129,11 @@ def from_file(path: str) -> Network:
     if not (net.spring_i.size == net.spring_j.size == net.stiffness.size):
         raise ValueError(f"{path}: spring_i, spring_j and stiffness differ in length")
     return net
+
+
+def generate(spec) -> Network:
+    """The network of a scene's ``model.generator`` (a chain or a metamaterial)."""
+    if spec.name == "chain":
+        return chain(spec.n, spec.mass, spec.stiffness, spec.left, spec.right)
+    return metamaterial(spec.M, spec.N, spec.Q, spec.shell_mass, spec.resonator_mass, spec.k_n,
+                        spec.k_s, spec.resonators)

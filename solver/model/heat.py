@@ -21,6 +21,8 @@ import numpy as np
 
 from solver.errors import SceneError
 from solver.model.embedding import Embedding, flat_cells, locate_in_cells
+from solver.model.elements import elastic, FAMILIES, _geometry
+from solver.petscutil import init, vec_on
 
 
 @dataclass
@@ -46,7 +48,6 @@ class Conduction:
     # ---------------------------------------------------------------- stepping
     def start(self):
         """The thermal state at heating time 0 (T = T0 everywhere)."""
-        from solver.petscutil import init, vec_on
         P = init()
         n = self.capacity.size
         K = P.Mat().createAIJ(size=(n, n), csr=(self.indptr.astype(P.IntType),
@@ -98,7 +99,6 @@ class Conduction:
 
 def _matrices(mesh, cells: dict, spec, material):
     """(K triplets, capacity, laser source) over the mesh nodes."""
-    from solver.model.elements import FAMILIES, _geometry
     t = material.measure()
     n = len(mesh.points)
     rows, cols, vals = [], [], []
@@ -128,6 +128,7 @@ def _matrices(mesh, cells: dict, spec, material):
 def build(scene, mesh, particles=None, n_model=None) -> Conduction:
     """The conduction model on the body's cells; ``particles`` [n_p, dim]: the
     model nodes after the mesh nodes (a transition band's core particles)."""
+    # lazy: scipy loads only where it is used
     from scipy.sparse import coo_matrix, diags
     from scipy.sparse.linalg import eigsh
     spec, model = scene.heat, scene.model
@@ -135,7 +136,7 @@ def build(scene, mesh, particles=None, n_model=None) -> Conduction:
     from solver.model.elements import FAMILIES
     cells = {f: c for f, c in body.cells.items() if f in FAMILIES}        # the body families
     n = len(mesh.points)
-    r, c, v, cap, src = _matrices(mesh, cells, spec, model.material.elastic())
+    r, c, v, cap, src = _matrices(mesh, cells, spec, elastic(model.material))
     K = coo_matrix((v, (r, c)), shape=(n, n)).tocsr()
     K.sum_duplicates()
     used = cap > 0

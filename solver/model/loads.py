@@ -99,3 +99,12 @@ def load_function(spec) -> LoadFunction:
     if spec.kind == "rectangular":
         return Rectangular(spec.amplitude, spec.duration, spec.start)
     return Tabulated(tuple(r[0] for r in spec.table), tuple(r[1] for r in spec.table))
+
+
+@dataclass(frozen=True)
+class PointLoad:
+    """A time function times ``scale`` applied to one DOF."""
+
+    dof: int
+    function: LoadFunction
+    scale: float = 1.0

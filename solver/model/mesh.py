@@ -1,7 +1,8 @@
 """Meshes from gmsh: a .geo meshed through the gmsh API, or a .msh read by it.
 
 ``read(path, comm)`` reads on rank 0 of ``comm`` and broadcasts; scripts that
-load a scene on every rank in step can ask for that with :func:`read_on`.
+load a scene on every rank in step can ask for that with a
+``ModelData(comm)`` (:mod:`solver.model.data`) passed to the binding.
 The command line instead loads the scene on rank 0 alone and broadcasts the
 bound scene, so the other ranks never hold the mesh.  Scenes name physical
 groups, not tags: ``Mesh.group(name)`` returns a group or raises a one-line
@@ -20,13 +21,16 @@ runs clockwise) is reoriented, also with a note.
 """
 from __future__ import annotations
 
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from solver.errors import SceneError
+from solver.scene.schema import shown
 from solver.model.elements import CELLS
+from solver.collective import on_root
 
 # names of the gmsh element types that are refused (gmsh's own name for the others)
 OTHER_TYPES = {6: "prism6", 7: "pyramid5", 8: "line3", 9: "tri6", 10: "quad9", 11: "tet10",
@@ -57,7 +61,6 @@ class Mesh:
 
     def group(self, name: str, where: str = "") -> Group:
         if name not in self.groups:
-            from solver.scene.schema import shown
             have = ", ".join(f"{g} (dim {self.groups[g].dim})" for g in sorted(self.groups))
             raise SceneError(f"{where + ': ' if where else ''}mesh has no physical group "
                              f"{shown(name)}; it has: {have or 'none'}")
@@ -66,7 +69,7 @@ class Mesh:
 
 def _unsupported(path, name, t) -> SceneError:
     """The refusal of gmsh element type ``t`` in group ``name``, in words."""
-    import gmsh
+    import gmsh  # lazy: gmsh loads only where a mesh is read
     try:
         gname, _, order, _, _, _ = gmsh.model.mesh.getElementProperties(int(t))
     except Exception:                                          # noqa: BLE001 (unknown to gmsh)
@@ -89,7 +92,7 @@ def _orientation(family, X):
 def _entity_cells(path, name, gdim, ent, index, xyz, top, flat, notes):
     """{family: (conn, tags)} of one entity's elements; an entity of the top
     dimension whose cells are all inverted is reoriented (noted)."""
-    import gmsh
+    import gmsh  # lazy: gmsh loads only where a mesh is read
     out = {}
     types, el_tags, node_tags = gmsh.model.mesh.getElements(gdim, ent)
     for t, et, nt in zip(types, el_tags, node_tags):
@@ -125,13 +128,12 @@ def _unique_cells(path, name, fam, conn, tags, notes):
 
 
 def _read_gmsh(path: str, dim: int | None, parameters: dict, gdim: int | None = None) -> Mesh:
-    import gmsh
+    import gmsh  # lazy: gmsh loads only where a mesh is read
     gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         if parameters and path.endswith(".geo"):
             # gmsh.open resets the parser: prepend the definitions to a copy
-            import tempfile
             head = "".join(f"{k} = {float(v)!r};\n" for k, v in parameters.items())
             with tempfile.NamedTemporaryFile("w", suffix=".geo", delete=False) as tmp:
                 tmp.write(head + Path(path).read_text())
@@ -183,17 +185,6 @@ def _read_gmsh(path: str, dim: int | None, parameters: dict, gdim: int | None = 
         gmsh.finalize()
 
 
-# The communicator scenes read their meshes on (None: every process reads its own).
-# Scripts that load scenes on every rank in step may set it (:func:`read_on`), so
-# rank 0 meshes or reads the file once and broadcasts it.
-READER = None
-
-
-def read_on(comm):
-    """Scenes loaded from now on read their meshes on rank 0 of ``comm`` (collective)."""
-    global READER
-    READER = comm if comm is not None and comm.size > 1 else None
-
 
 def read(path: str, comm=None, dim: int | None = None, parameters: dict | None = None,
          gdim: int | None = None) -> Mesh:
@@ -203,7 +194,6 @@ def read(path: str, comm=None, dim: int | None = None, parameters: dict | None =
     shells)."""
     if not Path(path).is_file():
         raise SceneError(f"{path}: mesh file not found")
-    from solver.collective import on_root
 
     def read_here():
         try:

@@ -18,7 +18,8 @@ import numpy as np
 
 from solver.errors import SceneError
 from solver.model import shell
-from solver.model.elements import TRI3, Family
+from solver.model.boundary import fixed_dofs, load_list
+from solver.model.elements import TRI3, Family, elastic, volumes
 from solver.model.interface import Shells
 
 # the flat shell triangle: a tri3 of the mesh whose nodes also rotate; not a
@@ -32,7 +33,7 @@ DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
 
 class ShellStiffness:
     """K_e of shell triangles, computed when asked (like
-    :class:`solver.partitions.assembly.CellStiffness`)."""
+    :class:`solver.model.cell_blocks.CellStiffness`)."""
 
     def __init__(self, points, conn, material):
         self.points, self.conn, self.material = points, conn, material
@@ -77,17 +78,16 @@ def surface(mesh, group, where, material, wall):
 
 
 def build(scene, mesh):
-    """The shell model of ``scene`` on ``mesh`` (3D points)."""
-    from solver.model.continuum import ContinuumArrays, fixed_dofs, load_list
+    """The shell model of ``scene`` on ``mesh`` (3D points): the fields of its
+    :class:`~solver.model.continuum.ContinuumArrays`."""
     spec = scene.model
     cell, mass, inertia = surface(mesh, spec.body, "model.body", spec.material, spec.material)
     pts, n = mesh.points, len(mesh.points)
     cells = [cell]
     fixed = fixed_dofs(scene, mesh, n, 6)
     loads = load_list(scene, mesh, 6, 3)
-    return ContinuumArrays(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed,
-                           loads=tuple(loads), u0=np.zeros(6 * n), v0=np.zeros(6 * n),
-                           shells=Shells(inertia=inertia))
+    return dict(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed, loads=tuple(loads),
+                u0=np.zeros(6 * n), v0=np.zeros(6 * n), shells=Shells(inertia=inertia))
 
 
 # ------------------------------------------------------------ shells and solids
@@ -165,9 +165,7 @@ def centroid_gradients(family, X):
 def build_mixed(scene, mesh, solid_cells, mass):
     """A solid body with shell surfaces (``model.shells``): every node has 6
     DOFs; the solid-only nodes' rotations are fixed; shell nodes on the solid
-    are tied to it."""
-    from solver.model.continuum import ContinuumArrays, fixed_dofs, load_list
-    from solver.model.elements import volumes
+    are tied to it.  The fields of its :class:`~solver.model.continuum.ContinuumArrays`."""
     spec, mat = scene.model, scene.model.material
     pts, n = mesh.points, len(mesh.points)
     mass = mass.copy()
@@ -193,6 +191,6 @@ def build_mixed(scene, mesh, solid_cells, mass):
     fixed.reshape(n, 6)[still, 3:] = True                 # solid-only nodes do not rotate
     inertia[still] = np.maximum(mass[still], 1.0)          # (never used: those DOFs are fixed)
     loads = load_list(scene, mesh, 6, 3)
-    return ContinuumArrays(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed,
-                           loads=tuple(loads), u0=np.zeros(6 * n), v0=np.zeros(6 * n),
-                           material_D=mat.elastic().D(), shells=Shells(inertia=inertia))
+    return dict(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed, loads=tuple(loads),
+                u0=np.zeros(6 * n), v0=np.zeros(6 * n), material_D=elastic(mat).D(),
+                shells=Shells(inertia=inertia))

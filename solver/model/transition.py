@@ -36,7 +36,7 @@ from solver.model.lattice import cubic, merge, square
 
 class RankOneBonds:
     """Stiffness k g g^T of bonds carried to nodes (``g`` [n_el, nd]); blocks
-    computed when asked, like :class:`solver.partitions.assembly.CellStiffness`."""
+    computed when asked, like :class:`solver.model.cell_blocks.CellStiffness`."""
 
     def __init__(self, conn, g, k, length):
         self.conn, self.g, self.k, self.length = conn, g, k, length
@@ -303,14 +303,3 @@ def _check_layer(mesh, fe_cells, region, band, lat):
             raise SceneError(f"{key}: group {lat.transition!r} has {fam} cells; the band needs "
                              f"{mesh.dim}D cells")
 
-
-_cache: dict = {}
-
-
-def of(spec, mesh) -> Transition:
-    """``build`` once per model section and mesh (binding and the model stage share it)."""
-    key = (repr(spec), id(mesh))
-    if key not in _cache:
-        _cache.clear()
-        _cache[key] = build(spec, mesh)
-    return _cache[key]

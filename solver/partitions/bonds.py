@@ -29,6 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from solver.petscutil import init, vec_on
+from solver.partitions.contact import Contact
+from solver.partitions.bond_kernel import bond_forces, rest_length_work
 
 
 class BondForce:
@@ -100,7 +102,6 @@ class BondForce:
         self._snapped = np.zeros(len(k), dtype=np.int64)
         self.contact = None
         if contact is not None:                  # the lattice's particles, held and ghosts
-            from solver.partitions.contact import Contact
             loc = lay.local(whole)
             particles = np.where(loc >= 0, loc, held.size + np.searchsorted(ghosts, whole))
             mass = node_mass[np.concatenate([held, ghosts])]
@@ -128,7 +129,6 @@ class BondForce:
     def internal(self, u_vec, out_vec):
         """out = f_int(u); bonds beyond their critical strain break first (at
         ``now``).  The compiled loop (:mod:`solver.partitions.bond_kernel`)."""
-        from solver.partitions.bond_kernel import bond_forces
         x, n = self.positions(u_vec), self.n_held
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
@@ -205,7 +205,6 @@ class BondForce:
         L0 = self.L_cold * (1.0 + spec.expansion * (T - spec.initial))
         work = 0.0
         if count and spec.expansion:
-            from solver.partitions.bond_kernel import rest_length_work
             if self._shares is None:
                 self._shares = self._share()
             work = rest_length_work(self.positions(self.part.u), self.i, self.j, self.k,

@@ -69,7 +69,7 @@ class Contact:
         self.energy = 0.0
 
     def _build(self, x):
-        from scipy.spatial import cKDTree
+        from scipy.spatial import cKDTree  # lazy: scipy loads only where it is used
         pts = x[self.nodes]
         pairs = cKDTree(pts).query_pairs(2 * self.radius + self.skin, output_type="ndarray")
         self._pairs = self.nodes[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)

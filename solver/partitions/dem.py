@@ -15,6 +15,8 @@ import numpy as np
 from solver.laws import BOND_GEOMETRIES
 from solver.partitions.force import LinearForce
 from solver.partitions.partition import Partition
+from solver.model.continuum import BondStiffness
+from solver.partitions.bonds import BondForce
 
 
 class DemPartition(Partition):
@@ -49,8 +51,6 @@ class DemPartition(Partition):
     def _nonlinear(self, model, blocks, B):
         """Lattice bonds from the current configuration (and breakage); the other
         elements keep a linear operator; B (all of them, at rest) is the tangent."""
-        from solver.model.continuum import BondStiffness
-        from solver.partitions.bonds import BondForce
         lattice = [(c, k) for c, k in blocks if isinstance(k, BondStiffness)]
         others = [(c, k) for c, k in blocks if not isinstance(k, BondStiffness)]
         conn = np.concatenate([c for c, _ in lattice]) if lattice else np.zeros((0, 2), np.int64)

@@ -7,7 +7,7 @@ rank: for bars and chains the chunks are slabs with small interfaces.  Each
 external node (a copy of another partition's node) is held by the piece that
 holds a neighbour of it in the layer before (the lowest such piece).
 
-A piece is a :class:`~solver.coupling.overlap.Layout` whose ``owned`` are its chunk
+A piece is a :class:`~solver.model.layout.Layout` whose ``owned`` are its chunk
 (in RCM order) and whose layers are its external nodes, so local vectors are
 ``[owned | external]`` on every rank.  The partition's distributed numbering
 puts piece 0's held nodes first, then piece 1's, and so on; ghosts *within*
@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver.coupling.overlap import Layout
+from solver.model.layout import Layout
+from solver.petscutil import init
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,6 @@ def whole(layout: Layout, n_nodes: int) -> Distribution:
 
 def rcm(nodes: np.ndarray, graph) -> np.ndarray:
     """``nodes`` in reverse Cuthill-McKee order of the subgraph they induce."""
-    from solver.petscutil import init
     n = nodes.size
     if n <= 2:
         return nodes.copy()

@@ -61,7 +61,7 @@ def largest(apply, x0: np.ndarray, k: int, comm=None) -> tuple[float, int]:
     one process).  Fewer steps when the Krylov space is exhausted (then theta
     is exact); NaN when the operator produced NaN or inf; 0 for a start
     vector of zeros (nothing to step)."""
-    from scipy.linalg import eigh_tridiagonal
+    from scipy.linalg import eigh_tridiagonal  # lazy: scipy loads only where it is used
 
     def dot(a, b):
         v = float(np.dot(a, b))

@@ -51,6 +51,9 @@ from solver.partitions.loads import Loads
 from solver.partitions.mass import LumpedMass
 from solver.partitions.state import State
 from solver.petscutil import vec_on
+from solver.partitions.distribute import whole
+from solver.partitions.thermal import ThermalForce
+from solver.partitions.assembly import default_type, matrix
 
 
 def _forward(part: str, name: str, doc: str = "", settable: bool = False):
@@ -102,7 +105,6 @@ class Partition:
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
                  system_ratio: int, damping=None, dist=None, graph=None):
-        from solver.partitions.distribute import whole
         self.spec = spec
         # the partition over the ranks of ``comm``; ``layout`` is this rank's piece
         self.dist = dist if dist is not None else whole(layout, model.n_nodes)
@@ -155,7 +157,6 @@ class Partition:
         self.thermal = None
         heat = model.heat
         if heat is not None and heat.spec.expansion > 0 and self.force.blocks:
-            from solver.partitions.thermal import ThermalForce
             self.thermal = ThermalForce(self, self.force.blocks, model.points, heat.n_model,
                                         heat.spec)
             self.built.append("thermal forces alpha G dT of the elements (G: "
@@ -180,7 +181,6 @@ class Partition:
     def operator(self, block_sets, scale=1.0, diagonal=None, solved=False):
         """This rank's rows of a matrix over the partition's held DOFs from
         element block sets (global node ids; see :mod:`solver.partitions.assembly`)."""
-        from solver.partitions.assembly import default_type, matrix
         return matrix(lambda: block_sets, self.dist.number, self.layout.n_held, self.dist.n_held,
                       self.layout.start, self.dofmap, self.comm, self.prefix, scale=scale,
                       diagonal=diagonal, mat_type=default_type(self.dof, solved), graph=self.graph)

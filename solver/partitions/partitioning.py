@@ -15,11 +15,11 @@ import numpy as np
 
 from solver.collective import agree, on_root
 from solver.partitions import distribute, integrators
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.partitions import ranks
 from solver.partitions import stability
 from solver.partitions.dem import DemPartition
-from solver.errors import SceneError, SolverError, StabilityError
+from solver.errors import SceneError, SolverError, StabilityError, describe
 from solver.partitions.fem import FemPartition
 
 PARTITION_TYPES = {"fem": FemPartition, "dem": DemPartition}
@@ -101,7 +101,6 @@ def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
     except SolverError as e:
         error = e
     except Exception as e:                      # noqa: BLE001 -- PETSc errors from options
-        from solver.driver.stop import describe
         error = SceneError(f"partition '{name}': PETSc could not build it "
                            f"({describe(e)}); check the -{name}_ options")
     try:

@@ -130,7 +130,7 @@ def communicators(world, assignment: Assignment):
 
     One split of ``world`` serves all multi-rank partitions (their rank sets
     are disjoint); single-rank partitions use COMM_SELF."""
-    from mpi4py import MPI
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
     mine = assignment.partitions_on(world.rank)
     multi = [p for p in mine if len(assignment.ranks[p]) > 1]
     color = multi[0] if multi else MPI.UNDEFINED

@@ -31,11 +31,17 @@ refused (SceneError naming the partition).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from solver.model.arrays import dof_masses
+from solver.errors import SceneError, StabilityError
+from solver.partitions import lanczos, integrators
+from solver.model.dofmap import DofMap
+from solver.partitions.assembly import triplets
+from solver.petscutil import vec_on, init
+from solver.partitions.contact import coordination, bound_stiffness
 
 EXACT_LIMIT = 300        # dense eigenvalues up to here
 DENSE_LIMIT = 3000       # dense eigenvalues when Lanczos does not converge, up to here
@@ -67,7 +73,6 @@ def seconds(*values: float, digits: int = 4) -> list[str]:
 
 
 def non_finite(name: str):
-    from solver.errors import SceneError
     return SceneError(f"partition '{name}': M^-1 K has a NaN or infinite entry (a mass or "
                       "stiffness beyond floating point, e.g. a near-zero or non-finite thickness, "
                       "E or density), so it has no critical step; check the material and the "
@@ -91,7 +96,6 @@ def estimate(scaled, x0, n_free: int, ger: float, comm, name: str) -> Frequency:
     (eigenvalues in [0, 1]: no overflow for any finite operator), ``ger`` the
     Gershgorin bound of lambda_max, which caps the estimate; ``n_free`` free
     DOFs in all, start rows ``x0``."""
-    from solver.partitions import lanczos
     if not np.isfinite(ger):
         raise non_finite(name)
     if ger == 0.0:
@@ -113,11 +117,8 @@ def omega_max(block_sets, held, mass: np.ndarray, dofmap, name: str = "?") -> Fr
     node ids) over ``held`` nodes (DOFs per ``dofmap``, the model's) and lumped
     ``mass`` per held DOF (inf: held still); None above PREBUILD_LIMIT DOFs
     (then :func:`assembled` decides once the operator exists)."""
-    from scipy.sparse import coo_matrix
+    from scipy.sparse import coo_matrix  # lazy: scipy loads only where it is used
 
-    from solver.model.dofmap import DofMap
-    from solver.partitions import lanczos
-    from solver.partitions.assembly import triplets
     n = mass.size
     still = np.isinf(mass) & (mass > 0)
     if n == 0 or still.all() or not any(len(c) for c, _ in block_sets):
@@ -151,8 +152,6 @@ def from_operator(Kneg, mass: np.ndarray, still: np.ndarray, ids: np.ndarray,
                   name: str) -> Frequency:
     """omega_max from a partition's assembled operator ``Kneg`` (= -K; this
     rank's rows, model DOF ids ``ids``; collective): Lanczos with MatMult."""
-    from solver.partitions import lanczos
-    from solver.petscutil import vec_on
     comm = Kneg.getComm().tompi4py()
     diag = -Kneg.getDiagonal().getArray()
     error = None
@@ -186,7 +185,7 @@ def from_operator(Kneg, mass: np.ndarray, still: np.ndarray, ids: np.ndarray,
 
 
 def _or():
-    from mpi4py import MPI
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
     return MPI.LOR
 
 
@@ -198,7 +197,6 @@ def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
     (this rank's rows; collective): max_i sum_j |K_ij| s_i s_j with s = m^-1/2
     and 0 on fixed DOFs, as PETSc's infinity norm of diagonally scaled row
     chunks (MatCreateSubMatrix), so only a chunk is ever copied."""
-    from solver.petscutil import init
     P = init()
     comm = Kneg.getComm().tompi4py()
     with np.errstate(divide="ignore"):
@@ -238,7 +236,6 @@ def side(scene, spec, model, held, build, note):
     ``build()``, and for partitions too large for the check before building
     the estimate from the assembled operator.  Returns (partition, (Frequency, critical
     step)); an unstable step raises StabilityError, ``note`` appended."""
-    from solver.errors import StabilityError
     fr, crit, problem = check(scene, spec, model, held)
     part = None
     if not problem:
@@ -262,7 +259,7 @@ def assembled(scene, part):
 
 
 def _max():
-    from mpi4py import MPI
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
     return MPI.MAX
 
 
@@ -317,19 +314,16 @@ def with_contact(fr: Frequency, model, mass) -> Frequency:
     contact = model.contact
     if contact is None:
         return fr
-    from solver.partitions.contact import coordination
     m = np.asarray(mass, dtype=float)
     m = m[np.isfinite(m) & (m > 0)]
     if not m.size:
         return fr
-    from solver.partitions.contact import bound_stiffness
     lam = fr.omega_max ** 2 + 2 * coordination(model.dof) * bound_stiffness(contact) / m.min()
     return Frequency(float(np.sqrt(lam)), fr.method + " + contact bound")
 
 
 def verdict(scene, spec, fr: Frequency):
     """(critical step, problem message or None) of partition ``spec`` at ``fr``."""
-    from solver.partitions import integrators
     integrator = integrators.make(spec)
     limit = integrator.critical_omega_h()
     if scene.damping.active and not integrator.implicit:
@@ -366,7 +360,6 @@ def largest_stable_ratio(scene, freqs) -> tuple[int | None, str | None]:
     partitions' verdicts, and above ratio 1 the damping that sub-cycling needs
     (:func:`damping_need`).  Ratio 0: none; None: not known yet (a
     frequency still to be computed)."""
-    from dataclasses import replace
     fem = next(p for p in scene.partitions if p.method == "fem")
     if any(freqs.get(p.name, (None,))[0] is None for p in scene.partitions):
         return None, None

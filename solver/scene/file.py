@@ -4,6 +4,7 @@ Part of the scene module (:mod:`solver.scene` re-exports every name).
 """
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -153,14 +154,15 @@ def load_raw(path: str | Path) -> dict:
 
 
 def from_dict(raw: dict) -> Scene:
-    """Parse and validate ``raw``, then bind it to its model data (mesh groups and
-    probe points resolved to node ids; see :mod:`solver.model.binding`)."""
-    from solver.model.binding import bind
-    return bind(parse(Scene, raw))
+    """Parse and validate ``raw``: its own keys only.  The checks against the model
+    data (mesh groups, probe points to node ids) are the model stage's:
+    :func:`solver.model.binding.from_dict` parses and binds."""
+    return parse(Scene, raw)
 
 
 def load(path: str | Path, overrides=()) -> Scene:
-    """Read, override and validate a scene file.  Errors name the file and key."""
+    """Read, override and validate a scene file (not bound: see
+    :func:`solver.model.binding.load`).  Errors name the file and key."""
     return load_with_text(path, overrides)[0]
 
 
@@ -171,7 +173,6 @@ PATH_KEYS = (("model", "mesh"), ("model", "file"), ("output", "file"))
 def anchor_paths(raw: dict, base: str | Path) -> dict:
     """``raw`` with its relative paths (PATH_KEYS) joined to ``base``, and the
     default output ``results/<name>.h5`` placed there too."""
-    import os
     for section, key in PATH_KEYS:
         node = raw.get(section)
         if isinstance(node, dict) and isinstance(node.get(key), str) and node[key].strip():
@@ -183,15 +184,18 @@ def anchor_paths(raw: dict, base: str | Path) -> dict:
     return raw
 
 
-def load_with_text(path: str | Path, overrides=()) -> tuple[Scene, str]:
+def load_with_text(path: str | Path, overrides=(), then=None) -> tuple[Scene, str]:
     """(the scene, the effective scene as YAML: the file with the overrides applied).
     Paths in the file are relative to its directory; paths given in
-    ``overrides`` to the working directory."""
+    ``overrides`` to the working directory.  ``then``: a function of the parsed
+    scene whose result is returned (the binding), its errors named by the file too."""
     raw = anchor_paths(load_raw(path), Path(path).parent)
     for assignment in overrides:
         apply_override(raw, assignment)
     try:
         scene = from_dict(raw)
+        if then is not None:
+            scene = then(scene)
     except SceneError as e:
         raise SceneError(f"{path}: {e}") from None
     return scene, yaml.safe_dump(raw, sort_keys=False)

@@ -10,7 +10,6 @@ from typing import Literal
 
 
 from solver.laws import BOND_GEOMETRIES, CONTACT_LAWS
-from solver.model import generators
 from solver.scene.schema import convert, fail, key, shown, tagged
 
 GROUND = -1  # node id of the fixed end of a spring
@@ -63,9 +62,6 @@ class ChainGenerator:
     left: Literal["fixed", "free"] = key("left end tied to the ground or free", "fixed")
     right: Literal["fixed", "free"] = key("right end tied to the ground or free", "free")
 
-    def build(self):
-        return generators.chain(self.n, self.mass, self.stiffness, self.left, self.right)
-
     def validate(self, path):
         if self.n > MAX_NODES:
             fail(f"{path}.n", f"{self.n} masses: at most {MAX_NODES:.0e} are generated")
@@ -82,10 +78,6 @@ class MetamaterialGenerator:
     k_n: float = key("shell-shell spring and right-end ground spring [N/m]", positive=True)
     k_s: float = key("shell-resonator spring [N/m]", positive=True)
     resonators: bool = key("false: the plain chain of shells (Li et al. 2023, Fig. 8)", True)
-
-    def build(self):
-        return generators.metamaterial(self.M, self.N, self.Q, self.shell_mass,
-                                       self.resonator_mass, self.k_n, self.k_s, self.resonators)
 
     def validate(self, path):
         if self.M + self.N + self.Q < 1:
@@ -156,16 +148,12 @@ class Material:
         if self.kind == "shell" and self.thickness is None:
             fail(f"{path}.thickness", "a shell needs its wall thickness")
 
-    def elastic(self):
-        from solver.model.elements import Elastic
-        return Elastic(self.E, self.nu, self.rho, self.kind,
-                       self.thickness if self.thickness is not None else 1.0)
-
     @property
     def depth(self) -> float:
         """Out-of-plane depth of the body: the thickness in plane stress
         (default 1 m), 1 m otherwise."""
-        return self.elastic().measure()
+        return self.thickness if self.kind == "plane_stress" and self.thickness is not None \
+            else 1.0
 
 
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")

@@ -13,17 +13,23 @@ every rank; it writes the output file as the command line does.  Errors are
 """
 from __future__ import annotations
 
+from solver.threads import one_blas_thread
+from solver.model import binding
+from solver.petscutil import init
+from solver.driver.build import run_flags
+from solver.driver.runner import run as _run
+
 
 def load(path, overrides=()):
     """A validated scene from a YAML file and ``key.path=value`` overrides."""
-    from solver import scene
-    return scene.load(path, list(overrides))
+    one_blas_thread()
+    return binding.load(path, list(overrides))
 
 
 def scene_from_dict(raw: dict):
     """A validated scene from plain data (the YAML's structure)."""
-    from solver import scene
-    return scene.from_dict(raw)
+    one_blas_thread()
+    return binding.from_dict(raw)
 
 
 def run(scene, comm=None, petsc_options=(), log=None, restart=None, overwrite=False):
@@ -33,8 +39,8 @@ def run(scene, comm=None, petsc_options=(), log=None, restart=None, overwrite=Fa
     started yet in this process; ``log``: a print-like callable (default silent);
     ``overwrite``: replace an output file that holds a checkpoint (refused
     otherwise, as on the command line)."""
-    from solver.petscutil import init
-    from solver.driver.runner import run as _run
-    init(list(petsc_options))
+    one_blas_thread()
+    petsc_only, measure_wait = run_flags(petsc_options)
+    init(petsc_only)
     return _run(scene, comm, log=log or (lambda *a, **k: None), restart=restart,
-                overwrite=overwrite)
+                overwrite=overwrite, measure_wait=measure_wait)

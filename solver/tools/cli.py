@@ -8,10 +8,15 @@ on stderr and an exit code (see README): 2 bad scene or unstable step,
 """
 from __future__ import annotations
 
+import difflib
 import os
+import re
 import sys
+import time
+from pathlib import Path
 
 from solver.errors import LaunchError, SceneError, SolverError
+from solver.threads import one_blas_thread
 
 USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--restart FILE] [--overwrite] [PETSc options]
        ./run.sh test                          the test suite
@@ -68,7 +73,6 @@ def clip(text: str, limit: int = 80) -> str:
 
 def nearest(word: str, known) -> str:
     """'' or ' (did you mean X?)' for the known word closest to ``word``."""
-    import difflib
     match = difflib.get_close_matches(word, list(known), n=1, cutoff=0.6)
     return f" (did you mean {match[0]}?)" if match else ""
 
@@ -86,6 +90,7 @@ def check_launch(comm):
 
 
 def keys_markdown() -> str:
+    # lazy: each command loads only what it runs (keys, schemes, --help start fast)
     from solver.scene import Scene
     from solver.scene.schema import describe
     lines = ["| key | type | default | meaning |", "|---|---|---|---|"]
@@ -108,7 +113,6 @@ def schemes_markdown() -> str:
 def update_docs(path: str):
     """Replace the generated tables (keys, and coupling schemes where the file
     has their markers) between the markers of ``path``."""
-    import re
     text = open(path).read()
     for tag, table in (("keys", keys_markdown), ("schemes", schemes_markdown)):
         text = re.sub(rf"(<!-- {tag}:.*?-->\n).*?(<!-- /{tag} -->)",
@@ -117,6 +121,7 @@ def update_docs(path: str):
 
 
 def print_keys(markdown=False):
+    # lazy: each command loads only what it runs (keys, schemes, --help start fast)
     from solver.scene import Scene
     from solver.scene.schema import describe
     if markdown:
@@ -145,15 +150,18 @@ def print_schemes():
             print(f"  coupling.{name}: {tp} (default {default}): {doc}")
 
 
-def load_on_root(comm, path, overrides):
-    """Rank 0 reads the scene and its mesh or network and binds them; the other
-    ranks receive the bound scene (they never read the mesh)."""
+def load_on_root(comm, path, overrides, store=None):
+    """Rank 0 reads the scene and its mesh or network and binds them (into
+    ``store``, the run's ModelData); the other ranks receive the bound scene (they
+    never read the mesh)."""
+    # lazy: each command loads only what it runs (keys, schemes, --help start fast)
     from solver.collective import on_root
-    from solver.scene.file import load_with_text
-    return on_root(comm, load_with_text, path, overrides)
+    from solver.model.binding import load_with_text
+    return on_root(comm, load_with_text, path, overrides, store)
 
 
 def main(argv=None) -> int:
+    one_blas_thread()                # before anything loads numpy
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help") or "--help" in argv:
         print(USAGE)
@@ -167,6 +175,7 @@ def main(argv=None) -> int:
     if argv[0] == "schemes":
         print_schemes()
         return 0
+    # lazy: each command loads only what it runs (keys, schemes, --help start fast)
     from solver.driver.stop import guard_setup, mpi_started
     guard_setup()                    # SIGINT/SIGTERM before stepping: one line, exit 130
     rank, comm = 0, None
@@ -175,19 +184,26 @@ def main(argv=None) -> int:
         if path is None:
             raise SceneError("no scene file (*.yaml) among the arguments (./run.sh --help lists "
                              "the forms)")
-        from mpi4py import MPI
+        from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
         comm = MPI.COMM_WORLD
         rank = comm.rank
         mpi_started()
         check_launch(comm)
-        scene, effective = load_on_root(comm, path, overrides)
-        start_petsc(petsc_args)
+        # lazy: each command loads only what it runs (keys, schemes, --help start fast)
+        from solver.model.data import ModelData
+        from solver.driver.build import run_flags
+        store = ModelData()
+        scene, effective = load_on_root(comm, path, overrides, store)
+        petsc_only, measure_wait = run_flags(petsc_args)
+        start_petsc(petsc_only)
         guard_setup()                # again: PETSc's start-up installed its own handlers
+        # lazy: each command loads only what it runs (keys, schemes, --help start fast)
         from solver.driver.runner import run, summary
         from solver.driver import provenance
         result = run(scene, comm, log=print, scene_text=open(path, encoding="utf-8").read(),
                      restart=restart, provenance=provenance.attrs(effective, petsc_args),
-                     overwrite=overwrite, check_options=True)
+                     overwrite=overwrite, check_options=True, store=store,
+                     measure_wait=measure_wait)
         if rank == 0:
             for line in summary(result, scene.output_file):
                 print(line, flush=True)
@@ -200,6 +216,7 @@ def main(argv=None) -> int:
         if e.exit_code == 130 and comm is not None and comm.size > 1:
             # MPICH's mpiexec, itself interrupted, may report 0 whatever the ranks
             # return: the output is written, so end with MPI_Abort(130)
+            # lazy: each command loads only what it runs (keys, schemes, --help start fast)
             from solver.driver.stop import abort
             comm.Barrier()
             abort(comm, None, 130)
@@ -211,7 +228,8 @@ def main(argv=None) -> int:
     except Exception as e:                      # noqa: BLE001 -- one line, every rank ends
         if os.environ.get("MTS_TRACEBACK"):
             raise
-        from solver.driver.stop import describe
+        # lazy: each command loads only what it runs (keys, schemes, --help start fast)
+        from solver.errors import describe
         return stop_everyone(comm, f"internal error on rank {rank}: {describe(e)} (set "
                                    "MTS_TRACEBACK=1 for the traceback)", 1)
 
@@ -222,7 +240,7 @@ def stop_everyone(comm, message, code):
     if comm is None or comm.size == 1:
         print(f"error: {message}", file=sys.stderr, flush=True)
         return code
-    import time
+    # lazy: each command loads only what it runs (keys, schemes, --help start fast)
     from solver.driver.stop import abort
     if comm.rank != 0:
         time.sleep(0.5)             # rank 0, if it has the same problem, says it first
@@ -233,8 +251,7 @@ def stop_everyone(comm, message, code):
 def start_petsc(petsc_args):
     """petsc4py with the command line's PETSc options; a PETSc start-up error
     (a missing -options_file, a malformed option) is one line, exit 2."""
-    from pathlib import Path
-
+    # lazy: each command loads only what it runs (keys, schemes, --help start fast)
     from solver.petscutil import init
     for flag, value in zip(petsc_args, list(petsc_args[1:]) + [None]):
         if flag in ("-options_file", "-options_file_yaml"):

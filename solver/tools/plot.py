@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from pathlib import Path
 
 import h5py
@@ -53,11 +54,9 @@ def panels_of(probes, energy, heat) -> list[str]:
 
 
 def figure(path: str, out: str) -> str:
-    import textwrap
-
-    import matplotlib
+    import matplotlib  # lazy: matplotlib loads only for plots
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # lazy: matplotlib loads only for plots
     with h5py.File(path, "r") as f:
         a = dict(f.attrs)
         probes = {name: {k: g[k][()] for k in g} | {"attrs": dict(g.attrs)}
@@ -135,9 +134,9 @@ def figure(path: str, out: str) -> str:
 
 
 def compare(paths, probe, out) -> str:
-    import matplotlib
+    import matplotlib  # lazy: matplotlib loads only for plots
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # lazy: matplotlib loads only for plots
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for path in paths:
         with h5py.File(path, "r") as f:

@@ -31,7 +31,7 @@ import numpy as np
 
 from solver.coupling.schemes import MAX_RANKS, USES_EXTERNAL
 from solver.errors import SceneError
-from solver.scene import load
+from solver.model.binding import load
 
 
 def mpiexec() -> str:
@@ -156,8 +156,9 @@ def plot(rows, path, title, by_dt=False):
     """Error vs eta (or dt), error vs wall time, wall time vs eta (or dt); only
     the wall-time panel when the runs have no error (no reference).  Colour =
     scheme and treatment, line style = rank count; one legend entry per line."""
-    import matplotlib
+    import matplotlib  # lazy: matplotlib loads only for plots
     matplotlib.use("Agg")
+    # lazy: matplotlib loads only for plots
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
     err = error_key(rows)
@@ -217,7 +218,7 @@ def plot(rows, path, title, by_dt=False):
 def readable_log(axis, values):
     """Plain tick labels on a log axis whose data span less than a decade
     (matplotlib labels its minor ticks 6.9 x 10^-3 there)."""
-    from matplotlib.ticker import FuncFormatter
+    from matplotlib.ticker import FuncFormatter  # lazy: matplotlib loads only for plots
     values = [v for v in values if v > 0 and np.isfinite(v)]
     if values and max(values) < 10 * min(values):
         plain = FuncFormatter(lambda v, _: f"{v:.3g}")

@@ -115,7 +115,7 @@ def test_mixed_dof_counts_split_over_ranks():
     pieces and the exchange over all ranks give the 1-rank histories."""
     from mixed_dofs import mixed, run
     from solver.model import arrays
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     raw = raw_scene("six_dof")
     raw["time"]["end"] = 0.05 if OVERSUBSCRIBED else 1.0
     scene = from_dict(raw)
@@ -144,9 +144,9 @@ def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
     if WORLD.rank == 0:
         write_scene(path, raw)
     WORLD.barrier()
-    model_data._cache.clear()
-    scene, _ = load_on_root(WORLD, path, [])
-    assert (len(model_data._cache) == 1) == (WORLD.rank == 0)
+    store = model_data.ModelData()
+    scene, _ = load_on_root(WORLD, path, [], store)
+    assert (len(store) == 1) == (WORLD.rank == 0)
     asm = build(scene, WORLD)
     counts = WORLD.allgather(sum(len(conn) for _, conn, _ in asm.model.cells))
     held = np.concatenate([p.layout.held for p in asm.parts])
@@ -172,7 +172,7 @@ def scene_cells(scene):
 def test_errors_found_on_rank0_stop_every_rank(shared_tmp):
     from solver.errors import LaunchError, SceneError
     from solver.driver.build import build
-    from solver.scene import from_dict
+    from solver.model.binding import from_dict
     from solver.tools.cli import load_on_root
     from conftest import write_scene
     raw = raw_scene("wave_bar_fem")
