@@ -8,10 +8,10 @@ import sys
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] in (["--version"], ["-V"]):
-        from solver import __version__
+        from solver import __version__  # lazy: --version loads nothing else
         print(f"mts-solver {__version__}")
         return 0
-    from solver.tools.cli import main as cli_main
+    from solver.tools.cli import main as cli_main  # lazy: after the --version answer
     try:
         code = cli_main(argv)
         sys.stdout.flush()

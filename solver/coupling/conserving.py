@@ -41,6 +41,7 @@ from solver.coupling.scheme import two_sides
 from solver.coupling.system_step import Clocks
 from solver.coupling.gc import OwnSides
 from solver.errors import LaunchError, SceneError, SolverError
+from solver.laws import BOND_GEOMETRIES
 from solver.partitions import integrators, stability
 from solver.model.cell_blocks import kept
 from solver.partitions.dem import DemPartition
@@ -85,7 +86,6 @@ def interface(scene, mdl):
                          f"'{parts[c].name}' share no element (no interface)")
     if mdl.heat is not None:
         raise SceneError("heat: coupling.scheme conserving couples linear partitions without heat")
-    from solver.laws import BOND_GEOMETRIES
     if mdl.lattice is not None and BOND_GEOMETRIES[mdl.lattice.geometry].current:
         raise SceneError("model.lattice: coupling.scheme conserving needs linear partitions")
     return f, c, iface
@@ -147,7 +147,6 @@ class Conserving(OwnSides):
             fail("coupling.scheme", "conserving couples linear partitions without heat; "
                  "this scene has heat (use overlap or staggered)")
         lat = getattr(scene.model, "lattice", None)
-        from solver.laws import BOND_GEOMETRIES
         if lat is not None and BOND_GEOMETRIES[lat.geometry].current:
             fail("coupling.scheme", f"conserving couples linear partitions; "
                  f"model.lattice.geometry is {lat.geometry} (use linear, or staggered)")

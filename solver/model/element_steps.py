@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from solver.model import layout as overlap
+from solver.model.shell_model import SHELL3
 
 SHOWN = 3                # elements listed per partition
 CHUNK = 32768            # cells measured at a time (bounds the temporaries)
@@ -117,7 +118,6 @@ def _family(Ke):
     if kind == "Padded":                             # shells on solids: the solid cells
         Ke, kind = Ke.Ke, type(Ke.Ke).__name__
     if kind == "ShellStiffness":
-        from solver.model.shell_model import SHELL3
         return SHELL3
     if kind == "CellStiffness":
         return Ke.family

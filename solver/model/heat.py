@@ -133,7 +133,6 @@ def build(scene, mesh, particles=None, n_model=None) -> Conduction:
     from scipy.sparse.linalg import eigsh
     spec, model = scene.heat, scene.model
     body = mesh.group(model.body, "model.body")
-    from solver.model.elements import FAMILIES
     cells = {f: c for f, c in body.cells.items() if f in FAMILIES}        # the body families
     n = len(mesh.points)
     r, c, v, cap, src = _matrices(mesh, cells, spec, elastic(model.material))

@@ -30,7 +30,6 @@ import numpy as np
 
 from solver.petscutil import init, vec_on
 from solver.partitions.contact import Contact
-from solver.partitions.bond_kernel import bond_forces, rest_length_work
 
 
 class BondForce:
@@ -40,6 +39,9 @@ class BondForce:
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
                  contact=None, heat=None, node_mass=None):
+        # lazy: numba (about 1 s to import) loads only when a bonded partition is built
+        from solver.partitions.bond_kernel import bond_forces, rest_length_work
+        self._bond_forces, self._rest_length_work = bond_forces, rest_length_work
         P = init()
         self.part = part
         self.operator = linear_op            # the other elements' -K (None if there are none)
@@ -133,7 +135,7 @@ class BondForce:
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
         out = out_vec.getArray().reshape(n, self.dim)
-        snapped = bond_forces(x, self.i, self.j, self.k, self.L0, self.alive, self.limit, out, n,
+        snapped = self._bond_forces(x, self.i, self.j, self.k, self.L0, self.alive, self.limit, out, n,
                               self._snapped, self.operator is not None)
         if snapped:
             which = self._snapped[:snapped].copy()
@@ -207,7 +209,7 @@ class BondForce:
         if count and spec.expansion:
             if self._shares is None:
                 self._shares = self._share()
-            work = rest_length_work(self.positions(self.part.u), self.i, self.j, self.k,
+            work = self._rest_length_work(self.positions(self.part.u), self.i, self.j, self.k,
                                     self.L0, L0, self.alive, self._shares)
         self.T, self.L0 = T, L0
         if self.break_strain is not None and spec.melting is not None:

@@ -102,7 +102,7 @@ def keys_markdown() -> str:
 
 def schemes_markdown() -> str:
     """The coupling schemes' table (docs/scene.md), from the scheme registry."""
-    from solver.scene import registry
+    from solver.scene import registry  # lazy: the registry loads the scheme modules
     lines = ["| `coupling.scheme` | what it is | supports | stability |", "|---|---|---|---|"]
     for name, cls in registry.declared().items():
         cells = [c.replace("|", "\\|") for c in (cls.about, cls.supports, cls.limit)]
@@ -134,6 +134,7 @@ def print_keys(markdown=False):
 def print_schemes():
     """Integrators and coupling schemes for users: what each is, what it
     supports, its stability limit (the registry's texts, no code notes)."""
+    # lazy: each command loads only what it runs (keys, schemes, --help start fast)
     from solver.partitions import integrators
     from solver.scene import Coupling, registry
     from solver.scene.schema import describe
