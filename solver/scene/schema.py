@@ -22,9 +22,10 @@ MISSING = dataclasses.MISSING
 
 
 def key(doc: str, default: Any = MISSING, *, positive: bool = False,
-        nonnegative: bool = False, parse=None, choices_doc: str | None = None, variants=()):
+        nonnegative: bool = False, parse=None, choices_doc=None, variants=()):
     """A documented scene key; ``parse(value, path)`` overrides type conversion;
-    ``variants`` lists the sections a ``parse`` hook dispatches to (for docs)."""
+    ``variants`` lists the sections a ``parse`` hook dispatches to (for docs);
+    ``choices_doc``: the type column, or a callable giving it (a registry's names)."""
     meta = {"doc": doc, "positive": positive, "nonnegative": nonnegative, "parse": parse,
             "variants": variants}
     if choices_doc:
@@ -263,6 +264,7 @@ def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
         name = f"{prefix}{f.name}"
         tp = hints[f.name]
         tdoc = f.metadata.get("type_doc") or type_name(tp)
+        tdoc = tdoc() if callable(tdoc) else tdoc       # choices read from a registry now
         if f.default is not MISSING:
             default = ("(section defaults)" if dataclasses.is_dataclass(f.default) else
                        repr(f.default) if f.default is not None else "none")
