@@ -154,8 +154,11 @@ def test_a_law_registered_elsewhere_is_a_scene_value_and_drives_the_dem(cubic, t
     the step bound adds 2 z k_bound / m_min to the bonds' lambda_max."""
     from solver.partitions.contact import Contact, coordination
     from solver.scene import from_dict
+    from solver.tools.cli import keys_markdown
     k = 1e16
     assert from_dict(contact_scene("cubic_toy", k)).model.lattice.contact.law == "cubic_toy"
+    assert "| `model.lattice.contact.law` | linear \\| hertz \\| cubic_toy | 'linear' |" in \
+        keys_markdown()                                   # the keys list it while registered
     plain = built(contact_scene(), tmp_path)
     toy = built(contact_scene("cubic_toy", k), tmp_path)
     dem = next(p for p in toy.parts if p.method == "dem")

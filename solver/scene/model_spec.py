@@ -188,7 +188,7 @@ class ContactSpec:
     law: str = key(
         "linear: spring k_n d; hertz: k_h d^1.5 (the step bound takes its tangent at an "
         "overlap of 0.1 x radius)", "linear", parse=registered(CONTACT_LAWS),
-        choices_doc=CONTACT_LAWS.choices())
+        choices_doc=CONTACT_LAWS.choices)
     damping_ratio: float = key(
         "normal dashpot c = 2 zeta sqrt(k m*) of each contact (zeta this ratio, k the "
         "contact's tangent stiffness, m* the pair's reduced mass): a spring-dashpot; its "
@@ -222,7 +222,7 @@ class LatticeSpec:
         "linear: bonds act on the small-strain displacement (one assembled operator); "
         "nonlinear: each bond pulls along its current direction with its current length "
         "(large rotations exert no force), needed for break_strain", "linear",
-        parse=registered(BOND_GEOMETRIES), choices_doc=BOND_GEOMETRIES.choices())
+        parse=registered(BOND_GEOMETRIES), choices_doc=BOND_GEOMETRIES.choices)
     break_strain: float | None = key(
         "nonlinear bonds break for good when their strain (L - L0)/L0 exceeds this; the "
         "released energy and every break (time, place, strain) are recorded", None,

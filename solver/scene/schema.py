@@ -22,7 +22,7 @@ MISSING = dataclasses.MISSING
 
 
 def key(doc: str, default: Any = MISSING, *, positive: bool = False,
-        nonnegative: bool = False, parse=None, choices_doc: str | None = None, variants=()):
+        nonnegative: bool = False, parse=None, choices_doc=None, variants=()):
     """A documented scene key; ``parse(value, path)`` overrides type conversion;
     ``variants`` lists the sections a ``parse`` hook dispatches to (for docs).
     ``doc`` and ``choices_doc`` may be functions returning the text."""
