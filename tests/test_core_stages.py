@@ -354,3 +354,15 @@ def test_a_failing_step_stops_at_the_poll():
     assert stop.polled == [2]
     assert ("a", "stepped", 2) not in log and ("a", "after", 2, 2.0) not in log
     assert log[-1] == ("a", "finish", 2, 2.0)
+
+
+def test_no_module_imports_a_private_name_of_another():
+    """``from solver.x import _name`` reaches into another module's privates:
+    a name two modules share is public (say so by its name)."""
+    found = []
+    for mod, path in all_modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("solver"):
+                found += [f"{mod}: from {node.module} import {a.name}" for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]
+    assert not found, "\n".join(found)

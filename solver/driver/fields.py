@@ -32,7 +32,7 @@ import numpy as np
 import h5py
 
 from solver.driver.observers import Observer
-from solver.model.elements import elastic, _geometry, strain_matrix, FAMILIES
+from solver.model.elements import elastic, quadrature, strain_matrix, FAMILIES
 from solver.model.shell import resultants
 
 
@@ -93,7 +93,7 @@ class FieldWriter(Observer):
         self.kind, self.nu = material.kind, material.nu
         D = self.D = elastic(material).D()
         for fam, conn in ([] if self.shell else blocks):   # u_e -> cell-averaged stress
-            _, dNdx, _ = _geometry(fam, mdl.points[conn])
+            _, dNdx, _ = quadrature(fam, mdl.points[conn])
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
                                     dNdx.shape[1]))
         dem = [p for p in scene.partitions if p.method == "dem"]

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver.petscutil import init, vec_on
-from solver.model.elements import _geometry, strain_matrix
+from solver.model.elements import quadrature, strain_matrix
 
 
 def fe_row(mdl, node: int, c: int, thermal=None):
@@ -38,7 +38,7 @@ def fe_row(mdl, node: int, c: int, thermal=None):
         hit = np.flatnonzero((conn == node).any(axis=1))
         if not hit.size:
             continue
-        _, dNdx, _ = _geometry(fam, mdl.points[conn[hit]])
+        _, dNdx, _ = quadrature(fam, mdl.points[conn[hit]])
         op = np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) / dNdx.shape[1]   # [e, s, k*dim]
         nodes.append(conn[hit].ravel())
         coefs.append(op[:, c, :].reshape(-1, dim))

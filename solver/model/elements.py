@@ -273,7 +273,7 @@ def check_corners(family: Family, X: np.ndarray):
         raise BadElement(int(e), float(det[e, q]), int(q))
 
 
-def _geometry(family: Family, X: np.ndarray):
+def quadrature(family: Family, X: np.ndarray):
     """(N [q, a], dN/dx [e, q, a, d], w*detJ [e, q]) for coordinates X [e, a, d]."""
     N, dN = family.shape(family.points)
     J = np.einsum("qai,eaj->eqij", dN, X)            # J_ij = dx_j / dxi_i  [e, q, i, j]
@@ -321,7 +321,7 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
     K = np.empty((n_el, k * d, k * d))
     for s in range(0, n_el, CHUNK):
         try:
-            _, dNdx, wdet = _geometry(family, X[s:s + CHUNK])
+            _, dNdx, wdet = quadrature(family, X[s:s + CHUNK])
         except BadElement as e:
             raise BadElement(e.index + s, e.detj) from None
         e = dNdx.shape[0]
@@ -342,7 +342,7 @@ def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
     out = np.empty((X.shape[0], family.n_nodes))
     for s in range(0, X.shape[0], CHUNK):
         try:
-            N, _, wdet = _geometry(family, X[s:s + CHUNK])
+            N, _, wdet = quadrature(family, X[s:s + CHUNK])
             check_corners(family, X[s:s + CHUNK])
         except BadElement as e:
             raise BadElement(e.index + s, e.detj, e.corner) from None
@@ -351,5 +351,5 @@ def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
 
 
 def volumes(family: Family, X: np.ndarray) -> np.ndarray:
-    _, _, wdet = _geometry(family, X)
+    _, _, wdet = quadrature(family, X)
     return wdet.sum(axis=1)

@@ -21,7 +21,7 @@ import numpy as np
 
 from solver.errors import SceneError
 from solver.model.embedding import Embedding, flat_cells, locate_in_cells
-from solver.model.elements import elastic, FAMILIES, _geometry
+from solver.model.elements import elastic, FAMILIES, quadrature
 from solver.petscutil import init, vec_on
 
 
@@ -107,7 +107,7 @@ def _matrices(mesh, cells: dict, spec, material):
     for fam, conn in cells.items():
         family = FAMILIES[fam]
         X = mesh.points[conn]
-        N, dNdx, wdet = _geometry(family, X)
+        N, dNdx, wdet = quadrature(family, X)
         Ke = spec.conductivity * t * np.einsum("eq,eqai,eqbi->eab", wdet, dNdx, dNdx)
         k = conn.shape[1]
         rows.append(np.repeat(conn, k, axis=1).ravel())
