@@ -291,10 +291,10 @@ class ContinuumModel:
                  "solid body)")
 
 
-_model = tagged("kind", {"network": NetworkModel, "continuum": ContinuumModel})
+parse_model = tagged("kind", {"network": NetworkModel, "continuum": ContinuumModel})
 
 
-def _node_set(value, path):
+def parse_node_set(value, path):
     """Node ids as a list of ids and {range: [first, end)} items, or one range."""
     items = [value] if isinstance(value, dict) else value
     if not isinstance(items, list):

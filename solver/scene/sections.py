@@ -18,7 +18,7 @@ from typing import Literal
 from solver.scene import registry
 from solver.scene.schema import fail, key, shown
 from solver.scene.heat_spec import HeatSpec
-from solver.scene.model_spec import ContinuumModel, NetworkModel, _model, _node_set
+from solver.scene.model_spec import ContinuumModel, NetworkModel, parse_model, parse_node_set
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,7 @@ class Partition:
         "verlet: velocity Verlet (dem)")
     ratio: int = key("this partition steps ratio*time.dt", positive=True)
     nodes: tuple[int, ...] = key("node ids owned by this partition: ids and {range: [first, end]} "
-                                 "items (end excluded); or give group", (), parse=_node_set,
+                                 "items (end excluded); or give group", (), parse=parse_node_set,
                                  choices_doc="list of int | {range: [int, int]}")
     group: str | None = key("continuum models: the physical group whose nodes this partition "
                             "owns (nodes shared with an earlier partition stay there)", None)
@@ -275,7 +275,7 @@ class Scene:
     time: Time = key("time span and base step")
     model: NetworkModel | ContinuumModel = key(
         "the structure: kind network (masses and springs) or continuum (gmsh mesh)",
-        parse=_model, choices_doc="mapping with kind: network | continuum",
+        parse=parse_model, choices_doc="mapping with kind: network | continuum",
         variants=(NetworkModel, ContinuumModel))
     partitions: tuple[Partition, ...] = key("partitions; each node is owned by exactly one")
     coupling: Coupling = key("how partitions exchange", Coupling())
