@@ -12,6 +12,7 @@ from solver.collective import on_root
 from solver.model import layout as overlap
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
+from solver.partitions import integrators
 
 
 def _silent(*_):
@@ -95,7 +96,7 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False) -> A
     else:
         say(f"[solver]   {scheme.describe()}")
     not_built = []
-    if not any(p.integrator == "implicit" for p in scene.partitions):
+    if not any(integrators.kind(p).needs_ksp for p in scene.partitions):
         not_built.append("KSP (all partitions explicit)")
     if not scheme.exchanges and n_part == 1:
         not_built.append("exchange (single partition)")
