@@ -50,11 +50,12 @@ def run_cli(args, n: int | None = None, cwd=None, env=None, timeout=600):
                           timeout=timeout)
 
 
-def run_cases(cases, tmp_path: Path, n: int | None = None, timeout=900):
+def run_cases(cases, tmp_path: Path, n: int | None = None, timeout=600):
     """Several ``python -m solver`` command lines in one launch (under mpiexec -n N
     when n is given; tests/mpi/cli_cases.py): ``cases`` is a list of argument
-    lists, or of (arguments, stdout file) pairs to keep a case's rank-0 output.
-    Returns the process; it ends with the first failing case's exit code."""
+    lists, or of (arguments, stdout file) pairs to keep a case's rank-0 output;
+    ``timeout`` is per case, as run_cli's.  Returns the process; it ends with
+    the first failing case's exit code."""
     import json
     spec = [{"argv": list(map(str, c[0])), "stdout": str(c[1])} if isinstance(c, tuple)
             else {"argv": list(map(str, c)), "stdout": None} for c in cases]
@@ -64,7 +65,8 @@ def run_cases(cases, tmp_path: Path, n: int | None = None, timeout=900):
     if n:
         cmd = [mpiexec(), "-n", str(n), *cmd]
     return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=timeout)
+                          env={**os.environ, "PYTHONPATH": str(ROOT)},
+                          timeout=timeout * len(spec))
 
 
 def refused(scene, sets, tmp_path, n: int | None = None) -> str:

@@ -237,7 +237,7 @@ def two_rank_runs(tmp_path_factory):
             cases[n].append([write_scene(tmp / f"c{i}_s{n}.yaml", raw),
                              *sum((["--set", x] for x in sets), [])])
     for n, argvs in cases.items():
-        proc = run_cases(argvs, tmp, n=n if n > 1 else None)
+        proc = run_cases(argvs, tmp, n=n if n > 1 else None, timeout=300)
         assert proc.returncode == 0, proc.stderr
     return tmp
 

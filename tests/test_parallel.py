@@ -146,7 +146,7 @@ def test_transition_zone_on_two_and_three_ranks_matches_one(tmp_path):
         argv = [write_scene(tmp_path / f"s{n}.yaml", raw)]
         cases.setdefault(3 if n == "3dem" else n, []).append(argv)
     for ranks, argvs in cases.items():                 # both 3-rank runs in one launch
-        proc = run_cases(argvs, tmp_path, n=ranks if ranks > 1 else None, timeout=600)
+        proc = run_cases(argvs, tmp_path, n=ranks if ranks > 1 else None, timeout=300)
         assert proc.returncode == 0, proc.stderr
     out = {}
     for n, split in ((1, None), (2, None), (3, "fem"), ("3dem", "dem")):
