@@ -14,6 +14,12 @@ import yaml
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
 
+# The suite starts some hundred Python processes that import solver/: let them
+# share its compiled bytecode (solver/__pycache__, ignored by git) instead of
+# compiling every module again in each, whatever PYTHONDONTWRITEBYTECODE says.
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+sys.dont_write_bytecode = False
+
 
 def mpiexec() -> str:
     exe = os.environ.get("MTS_MPIEXEC") or shutil.which("mpiexec.mpich") or shutil.which("mpiexec")
@@ -42,6 +48,25 @@ def run_cli(args, n: int | None = None, cwd=None, env=None, timeout=600):
     full_env = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
     return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd or ROOT, env=full_env,
                           timeout=timeout)
+
+
+def run_cases(cases, tmp_path: Path, n: int | None = None, timeout=600):
+    """Several ``python -m solver`` command lines in one launch (under mpiexec -n N
+    when n is given; tests/mpi/cli_cases.py): ``cases`` is a list of argument
+    lists, or of (arguments, stdout file) pairs to keep a case's rank-0 output;
+    ``timeout`` is per case, as run_cli's.  Returns the process; it ends with
+    the first failing case's exit code."""
+    import json
+    spec = [{"argv": list(map(str, c[0])), "stdout": str(c[1])} if isinstance(c, tuple)
+            else {"argv": list(map(str, c)), "stdout": None} for c in cases]
+    path = tmp_path / f"cases-{n or 1}.json"
+    path.write_text(json.dumps(spec))
+    cmd = [sys.executable, str(ROOT / "tests" / "mpi" / "cli_cases.py"), str(path)]
+    if n:
+        cmd = [mpiexec(), "-n", str(n), *cmd]
+    return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)},
+                          timeout=timeout * len(spec))
 
 
 def refused(scene, sets, tmp_path, n: int | None = None) -> str:

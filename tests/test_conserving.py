@@ -5,7 +5,8 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import built, raw_scene, refused, run_cli, run_scene, stop_and_restart, write_scene
+from conftest import (built, raw_scene, refused, run_cases, run_cli, run_scene, stop_and_restart,
+                      write_scene)
 
 N, SPLIT = 40, 20
 
@@ -211,28 +212,45 @@ def histories(path):
         return {k: f[f"probes/{k}/displacement"][()] for k in f["probes"]}, f.attrs["ranks"]
 
 
-@pytest.mark.parametrize("scene, sets", [
+TWO_RANK_CASES = [
     ("chain", []),
     ("wave_bar_mts", ["time.end=1.6e-5", "partitions.coarse.ratio=10"]),
     ("wave_bar_mts", ["time.end=1.6e-5", "partitions.coarse.ratio=10", "partitions.0.ranks=1",
                       "partitions.1.ranks=1"]),
     ("wave_bar", ["time.end=1.6e-5", "coupling.scheme=conserving", "partitions.fem.ratio=10",
                   "partitions.fem.integrator=implicit"]),
-])
-def test_two_ranks_match_one_rank(scene, sets, tmp_path):
+]
+
+
+@pytest.fixture(scope="module")
+def two_rank_runs(tmp_path_factory):
+    """Every case of TWO_RANK_CASES on 1 rank and on 2: one launch per rank count
+    (tests/mpi/cli_cases.py); the output of case i on n ranks is c{i}_n{n}.h5."""
+    tmp = tmp_path_factory.mktemp("two_ranks")
+    cases = {1: [], 2: []}
+    for i, (scene, sets) in enumerate(TWO_RANK_CASES):
+        raw = chain(8, end=60.0) if scene == "chain" else raw_scene(scene)
+        if scene == "chain":
+            raw["partitions"].reverse()
+        for n in cases:
+            raw["output"] = {"file": str(tmp / f"c{i}_n{n}.h5")}
+            cases[n].append([write_scene(tmp / f"c{i}_s{n}.yaml", raw),
+                             *sum((["--set", x] for x in sets), [])])
+    for n, argvs in cases.items():
+        proc = run_cases(argvs, tmp, n=n if n > 1 else None, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+    return tmp
+
+
+@pytest.mark.parametrize("case", range(len(TWO_RANK_CASES)),
+                         ids=[f"{s}-sets{i}" for i, (s, _) in enumerate(TWO_RANK_CASES)])
+def test_two_ranks_match_one_rank(case, two_rank_runs):
     """Each side on its own rank (one allreduce per system step) gives the
     one-rank run to 1e-10 of the largest displacement; on the chain the two
     sides are swapped in the partition list too."""
-    raw = chain(8, end=60.0) if scene == "chain" else raw_scene(scene)
-    if scene == "chain":
-        raw["partitions"].reverse()
     out = {}
     for n in (1, 2):
-        raw["output"] = {"file": str(tmp_path / f"n{n}.h5")}
-        proc = run_cli([write_scene(tmp_path / f"s{n}.yaml", raw), *sum((["--set", x] for x in sets), [])],
-                       n=n if n > 1 else None, timeout=300)
-        assert proc.returncode == 0, proc.stderr
-        out[n] = histories(tmp_path / f"n{n}.h5")
+        out[n] = histories(two_rank_runs / f"c{case}_n{n}.h5")
         assert out[n][1] == n
     scale = max(np.abs(h).max() for h in out[1][0].values())
     assert scale > 0

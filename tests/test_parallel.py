@@ -1,4 +1,5 @@
 """Two ranks: end to end through mpiexec, the in-process MPI tests, launch errors."""
+import functools
 import subprocess
 import sys
 
@@ -6,19 +7,33 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import ROOT, mpiexec, raw_scene, run_cli, write_scene
+from conftest import ROOT, mpiexec, raw_scene, run_cases, run_cli, write_scene
 
 
-@pytest.mark.parametrize("eta", [1, 2, 5, 10, 20])
-def test_two_rank_run_matches_one_rank(eta, tmp_path):
+ETAS = (1, 2, 5, 10, 20)
+
+
+@pytest.fixture(scope="module")
+def eta_runs(tmp_path_factory):
+    """six_dof at every ratio of ETAS on 1 rank and on 2: one launch per rank
+    count (tests/mpi/cli_cases.py), the output files in the returned folder."""
+    tmp = tmp_path_factory.mktemp("eta")
+    cases = {1: [], 2: []}
     raw = raw_scene("six_dof")
-    raw["partitions"][0]["ratio"] = eta
-    files = {}
-    for n in (1, 2):
-        raw["output"] = {"file": str(tmp_path / f"n{n}.h5")}
-        proc = run_cli([write_scene(tmp_path / f"s{n}.yaml", raw)], n=n if n > 1 else None)
+    for eta in ETAS:
+        raw["partitions"][0]["ratio"] = eta
+        for n in cases:
+            raw["output"] = {"file": str(tmp / f"e{eta}_n{n}.h5")}
+            cases[n].append([write_scene(tmp / f"e{eta}_s{n}.yaml", raw)])
+    for n, argvs in cases.items():
+        proc = run_cases(argvs, tmp, n=n if n > 1 else None)
         assert proc.returncode == 0, proc.stderr
-        files[n] = h5py.File(tmp_path / f"n{n}.h5")
+    return tmp
+
+
+@pytest.mark.parametrize("eta", ETAS)
+def test_two_rank_run_matches_one_rank(eta, eta_runs):
+    files = {n: h5py.File(eta_runs / f"e{eta}_n{n}.h5") for n in (1, 2)}
     one, two = files[1]["probes/x3/displacement"][()], files[2]["probes/x3/displacement"][()]
     assert files[2].attrs["ranks"] == 2
     assert np.abs(one - two).max() <= 1e-12 * np.abs(one).max()
@@ -26,6 +41,7 @@ def test_two_rank_run_matches_one_rank(eta, tmp_path):
         assert files[n]["probes/x3"].attrs["max_rel_error"] <= 1e-5
 
 
+@functools.lru_cache(maxsize=None)
 def collected(path) -> int:
     proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "--collect-only", "-p",
                            "no:cacheprovider", path], cwd=ROOT, capture_output=True, text=True,
@@ -63,7 +79,7 @@ def test_launcher_mismatch_is_detected():
 def test_more_ranks_than_partitions_give_the_same_answer(tmp_path):
     """3 ranks for 2 partitions: one partition is split over two ranks."""
     raw = raw_scene("six_dof")
-    raw["time"]["end"] = 2.0
+    raw["time"]["end"] = 0.5                     # 1000 system steps: 3 ranks wait on 2 cores
     out = {}
     for n in (1, 3):
         raw["output"] = {"file": str(tmp_path / f"o{n}.h5")}
@@ -119,18 +135,21 @@ def test_transition_zone_on_two_and_three_ranks_matches_one(tmp_path):
     their cells then sit on different ranks): the probe histories
     (displacement and stress, in FE and DEM) equal the 1-rank run to 1e-12."""
     raw = raw_scene("wave_bar_transition")
-    raw["time"]["end"] = 3.9984e-5               # 714 steps: the pulse is inside the DEM region
-    out = {}
+    raw["time"]["end"] = 3.36e-5                 # 600 steps: the pulse is inside the DEM region
+    cases = {}
     for n, split in ((1, None), (2, None), (3, "fem"), ("3dem", "dem")):
-        ranks = 3 if n == "3dem" else n
         raw["output"] = {"file": str(tmp_path / f"o{n}.h5"), "progress": 0}
         for part in raw["partitions"]:
             part.pop("ranks", None)
             if split is not None:
                 part["ranks"] = 2 if part["name"] == split else 1
-        proc = run_cli([write_scene(tmp_path / f"s{n}.yaml", raw)],
-                       n=ranks if ranks > 1 else None, timeout=300)
+        argv = [write_scene(tmp_path / f"s{n}.yaml", raw)]
+        cases.setdefault(3 if n == "3dem" else n, []).append(argv)
+    for ranks, argvs in cases.items():                 # both 3-rank runs in one launch
+        proc = run_cases(argvs, tmp_path, n=ranks if ranks > 1 else None, timeout=300)
         assert proc.returncode == 0, proc.stderr
+    out = {}
+    for n, split in ((1, None), (2, None), (3, "fem"), ("3dem", "dem")):
         with h5py.File(tmp_path / f"o{n}.h5") as f:
             out[n] = {(p, k): f[f"probes/{p}/{k}"][()] for p in "ABC"
                       for k in ("displacement", "stress")}
