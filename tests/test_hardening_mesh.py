@@ -210,9 +210,9 @@ def test_dart_quad_is_refused_naming_the_element_and_group(tmp_path):
     els = [(3, 1, 1, q) for q in quads] + [(1, 2, 2, e) for e in left]
     path = msh22(tmp_path / "dart.msh", nodes, els, [(2, 1, "solid"), (1, 2, "left")])
     mesh = read(path)
-    from solver.model.elements import FAMILIES, _geometry
+    from solver.model.elements import FAMILIES, quadrature
     X = mesh.points[mesh.group("solid").cells["quad4"][:1]]
-    assert (_geometry(FAMILIES["quad4"], X)[2] > 0).all()    # the Gauss points see nothing
+    assert (quadrature(FAMILIES["quad4"], X)[2] > 0).all()    # the Gauss points see nothing
     with pytest.raises(SceneError, match=r"model.body: group 'solid': gmsh element 1 \(quad4\) "
                                          r"non-convex or inverted \(at its corner node 2"):
         total_mass(mesh)
@@ -223,10 +223,10 @@ def test_dart_quad_is_refused_naming_the_element_and_group(tmp_path):
 
 
 def test_dart_hex_is_refused():
-    from solver.model.elements import FAMILIES, BadElement, _geometry, lumped_mass
+    from solver.model.elements import FAMILIES, BadElement, quadrature, lumped_mass
     X = np.array(HEX, dtype=float)
     X[6] = (1.2, 1.2, 1.2)                            # corner 6 pushed inside
-    assert (_geometry(FAMILIES["hex8"], X[None])[2] > 0).all()
+    assert (quadrature(FAMILIES["hex8"], X[None])[2] > 0).all()
     with pytest.raises(BadElement, match="corner node 6"):
         lumped_mass(FAMILIES["hex8"], X[None], Elastic(1e9, 0.3, 1e3))
     ok = np.array(HEX, dtype=float)[None]
