@@ -60,7 +60,7 @@ petsc_ok() {
 }
 
 python_ok() {
-  petsc_ok "$1" && "$1" -c 'import numpy, scipy, numba, h5py, yaml, matplotlib, meshio, pytest' >/dev/null 2>&1
+  petsc_ok "$1" && "$1" -c 'import numpy, scipy, numba, h5py, yaml, matplotlib, meshio, pytest, xdist' >/dev/null 2>&1
 }
 
 ensure_python() {
@@ -146,7 +146,9 @@ case "${1:-}" in
   test)
     shift
     cd "$here"                                     # the suite runs in the project
-    exec "$PY" -m pytest -q tests "$@"
+    # two workers, each taking whole test files (module fixtures run once);
+    # MTS_TEST_WORKERS=0 runs in this process, as plain pytest does
+    exec "$PY" -m pytest -q -n "${MTS_TEST_WORKERS:-2}" --dist loadfile tests "$@"
     ;;
   sweep)
     shift
