@@ -1,6 +1,6 @@
 """A network whose nodes carry different DOF counts, for the DOF map's tests.
 
-The six-DOF chain of seed 000 with an extra DOF on every odd node: DOF 0 is
+The six-DOF chain of Li et al. (2023) with an extra DOF on every odd node: DOF 0 is
 the chain (springs and loads as in six_dof.yaml), DOF 1 an independent
 oscillator to the ground (stiffness K2, unit mass) released from U2.  DOF 0
 must follow the plain chain; DOF 1 the central-difference solution

@@ -132,7 +132,7 @@ def test_wave_bar_at_eta_10(tmp_path):
 
 
 def test_wave_bar_with_its_lattice_at_eta_10(tmp_path):
-    """seed 003's bar with the bonded-lattice middle (dem, velocity Verlet) and
+    """Zhang et al.'s (2009) bar with the bonded-lattice middle (dem, velocity Verlet) and
     the FE rest implicit at 10 x the step (5.4 x the explicit limit, where the
     staggered scheme blows up): arrival within 1 %, peak within 5 %, and no
     warning about the implicit step's ratio (stable by construction)."""

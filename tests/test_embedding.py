@@ -1,4 +1,4 @@
-"""Particles inside coarse cells (seed 003 eq. 3-5): location, weights and the
+"""Particles inside coarse cells (Zhang et al. (2009) eq. 3-5): location, weights and the
 transfers, to round-off on every cell family."""
 import numpy as np
 import pytest

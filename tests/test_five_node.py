@@ -1,11 +1,11 @@
-"""Seed 002 §3: five-node chain, staggered explicit-implicit against the exact
+"""Ma et al. (2018) §3: five-node chain, staggered explicit-implicit against the exact
 solution (observed order 2) and against the GC baseline."""
 import numpy as np
 import pytest
 
 from conftest import raw_scene, run_cli, run_scene, write_scene
 
-STEPS = [0.001, 0.002, 0.006, 0.01]       # explicit steps of seed 002; implicit m = 3
+STEPS = [0.001, 0.002, 0.006, 0.01]       # explicit steps of Ma et al. (2018); implicit m = 3
 
 
 def run(scheme, dt, tmp_path, **extra):

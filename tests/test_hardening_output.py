@@ -92,7 +92,7 @@ def test_fields_are_one_time_series_ending_at_the_final_state(tmp_path):
 
 
 def test_particles_and_cracks_read_as_single_datasets(tmp_path):
-    """A bonded lattice that cracks (seed 003's bar, breakable nonlinear bonds,
+    """A bonded lattice that cracks (Zhang et al.'s (2009) bar, breakable nonlinear bonds,
     pulled): the particle XDMF is one time series whose last frame is the end
     state, with the probed particle's displacement equal to its history and
     damage > 0 on exactly the particles of the broken bonds; the cracks XDMF is

@@ -1,4 +1,4 @@
-"""Seed 000 §4: the metamaterial chain against the exact solution; the published
+"""Li et al. (2023) §4: the metamaterial chain against the exact solution; the published
 step is refused; the monolithic reference agrees with the modal one."""
 import numpy as np
 import pytest
@@ -27,7 +27,7 @@ def test_metamaterial_error_against_exact_solution(eta, tmp_path):
 
 
 def test_chain_plain_against_exact_solution(tmp_path):
-    """The chain without resonators (seed 000 Fig. 8's comparison) at eta 5."""
+    """The chain without resonators (Li et al. (2023) Fig. 8's comparison) at eta 5."""
     raw = raw_scene("chain_plain")
     raw["reference"] = "modal"
     res = run_scene(raw, tmp_path)

@@ -130,7 +130,7 @@ def test_wait_for_the_slower_rank_is_measured_apart(tmp_path):
 
 
 def test_transition_zone_on_two_and_three_ranks_matches_one(tmp_path):
-    """The transition scheme (seed 003) with FE and DEM on different ranks, and
+    """The transition scheme (Zhang et al. 2009) with FE and DEM on different ranks, and
     with the FE or the DEM partition split over two ranks (band particles and
     their cells then sit on different ranks): the probe histories
     (displacement and stress, in FE and DEM) equal the 1-rank run to 1e-12."""

@@ -1,4 +1,4 @@
-"""plate_fracture (seed 003 §3) in the suite: the scene with a laser 4x as
+"""plate_fracture (Zhang et al. (2009) §3) in the suite: the scene with a laser 4x as
 strong, so it cracks after 0.4 s of heating (the scene's own run, 8.9 s of
 heating, is benchmarks/bench_plate.py), on 1 and 2 ranks."""
 from __future__ import annotations

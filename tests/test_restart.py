@@ -141,7 +141,7 @@ def test_bad_restart_files_are_refused(tmp_path):
 
 @pytest.mark.parametrize("motion", ["predictor", "linear"])
 def test_transition_run_goes_on_with_a_later_end(tmp_path, motion):
-    """The transition scheme (seed 003) continued from its final checkpoint
+    """The transition scheme (Zhang et al. 2009) continued from its final checkpoint
     equals one run to the later end, bitwise: probe displacement and stress in
     FE and DEM, and the energy.  (With band_motion linear the DEM's band
     state is re-derived on restart as after every exchange.)"""

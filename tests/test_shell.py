@@ -301,7 +301,7 @@ def test_implicit_partition_holds_its_fixed_dofs(n, tmp_path):
 
 
 def test_coarse_u_tube(tmp_path):
-    """seed 002's U-tube, coarse (24 elements around, 20 ms): the conserving
+    """Ma et al.'s (2018) U-tube, coarse (24 elements around, 20 ms): the conserving
     scheme at m = 12 and the staggered one at m = 3 follow the all-explicit
     run's impact node within 1 % of its peak; energy (kinetic + strain) equals
     the load's work to 1e-6 of it once the load has gone."""

@@ -1,4 +1,4 @@
-"""Seed 000 §3: six-DOF chain, FEM m1-m3 + DEM m4-m6, against the exact solution."""
+"""Li et al. (2023) §3: six-DOF chain, FEM m1-m3 + DEM m4-m6, against the exact solution."""
 import numpy as np
 import pytest
 

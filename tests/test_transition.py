@@ -1,4 +1,4 @@
-"""Seed 003's transition zone: particles inside coarse band cells (issue 9).
+"""Zhang et al.'s (2009) transition zone: particles inside coarse band cells (issue 9).
 
 The model (masses, carried bonds, stresses) against exact values; the
 wave_bar scene against the 1D solution; the step guard naming both sides;

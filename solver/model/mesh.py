@@ -10,7 +10,7 @@ error that lists the groups the mesh has.  Cells of the top dimension are
 kept per family (tri3, quad4, tet4, hex8); lower-dimensional groups keep their
 node sets and facets (for Dirichlet conditions and tractions).
 
-Reading checks what the element kernels assume (README, "Meshes"): every node
+Reading checks what the element kernels assume (docs/theory/index.md, "Meshes"): every node
 has finite coordinates; only first-order elements (point, line2, tri3, quad4,
 tet4, hex8) are accepted, any other gmsh type is refused by name (tri6, prism6,
 ...); a cell listed twice in a group (the same nodes: an MSH 2 file writes an

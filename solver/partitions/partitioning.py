@@ -175,7 +175,7 @@ def owned_nonzeros(graph, owned, dofmap) -> int:
     return int((counts[owned] * reach).sum())
 
 
-# Measured on 2D bars (README, "Stability at larger eta"): an implicit partition
+# Measured on 2D bars (docs/benchmarks/papers.md, "Stability at larger η"): an implicit partition
 # coupled to explicit ones stayed stable up to a step of 1.35x the explicit
 # partitions' critical step and went unstable from 1.9x; 1D chains stay below 1x.
 COUPLED_IMPLICIT_STEP = 1.4

@@ -61,7 +61,7 @@ class Partition:
     beta: float = key("Newmark beta (explicit and implicit integrators)", 0.25, nonnegative=True)
     gamma: float = key("Newmark gamma (explicit and implicit integrators)", 0.5, positive=True)
     ranks: int | None = key("MPI ranks serving this partition (default: the run's ranks shared "
-                            "by estimated cost; see README, Ranks)", None, positive=True)
+                            "by estimated cost; see docs/guide/ranks.md)", None, positive=True)
 
     SUPPORTED = {("fem", "explicit"), ("fem", "implicit"), ("dem", "verlet")}
 

@@ -3,7 +3,7 @@
 Also ``python -m solver keys`` (every scene key with type, default and
 documentation) and ``python -m solver schemes`` (integrators and coupling
 schemes with their stability limits).  Errors end the process with one line
-on stderr and an exit code (see README): 2 bad scene or unstable step,
+on stderr and an exit code (docs/reference/exit-codes.md): 2 bad scene or unstable step,
 3 run stopped (non-finite state, energy growth), 4 MPI launch problem.
 """
 from __future__ import annotations
