@@ -287,43 +287,5 @@ def test_no_module_outside_the_scheme_classes_tests_a_scheme_name():
     assert not found, "\n".join(found)
 
 
-ALLOWED: set = set()     # schemes use the partition's public interface (partitions/partition.py)
-
-
-def private_reads(source: str):
-    """(line, 'base._name') of every attribute ``x._name`` (not dunder) whose
-    ``x`` is not ``self``, ``cls`` or ``super()``; base: x's last name."""
-    out = []
-    for node in ast.walk(ast.parse(source)):
-        if not (isinstance(node, ast.Attribute) and node.attr.startswith("_")
-                and not node.attr.startswith("__")):
-            continue
-        v = node.value
-        if isinstance(v, ast.Name) and v.id in ("self", "cls"):
-            continue
-        if isinstance(v, ast.Call) and isinstance(v.func, ast.Name) and v.func.id == "super":
-            continue
-        base = v.id if isinstance(v, ast.Name) else v.attr if isinstance(v, ast.Attribute) \
-            else ast.unparse(v)
-        out.append((node.lineno, f"{base}.{node.attr}"))
-    return out
-
-
-def test_the_private_attribute_scan_finds_what_it_should():
-    code = ("class A:\n    def f(self, p):\n        self._x = p._y + self.q._z + super()._w\n"
-            "        return cls._v, p.__dict__\n")
-    assert sorted(private_reads(code)) == [(3, "p._y"), (3, "q._z")]
-
-
-def test_coupling_driver_and_tools_read_no_private_attribute_of_another_object():
-    found, used = [], set()
-    for stage in ("coupling", "driver", "tools"):
-        for path in sorted((ROOT / "solver" / stage).glob("*.py")):
-            rel = path.relative_to(ROOT).as_posix()
-            for line, expr in private_reads(path.read_text()):
-                if (rel, expr) in ALLOWED:
-                    used.add((rel, expr))
-                else:
-                    found.append(f"{rel}:{line}: {expr}")
-    assert not found, "\n".join(found)
-    assert used == ALLOWED, f"no longer read (drop from ALLOWED): {sorted(ALLOWED - used)}"
+# No module of coupling/, driver/ or tools/ reads a `_` attribute of another object:
+# tests/test_core_partition.py scans every module outside partitions/ for that.
