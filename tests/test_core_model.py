@@ -193,8 +193,6 @@ MODEL_ATTRS = {"kind", "dof", "mass", "fixed", "loads", "u0", "v0", "points", "n
 ALLOWED = {
     ("model/interface.py", "model", None),          # features(): every FEATURES name
     ("coupling/conserving.py", "self._model", None),  # SideModel delegates to its model
-    ("driver/report.py", "p.force", "break_strain"),  # partition force objects
-    ("driver/fields.py", "p.force", "break_strain"),
     ("coupling/conserving.py", "scene.model", "lattice"),   # the scene's model section
     ("model/data.py", "data", "points"),              # model data: a Mesh or a Network
     ("driver/runner.py", "scene.reference", "kind"),  # the scene's reference: a name or a section

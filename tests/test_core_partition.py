@@ -273,3 +273,21 @@ def test_no_module_outside_partitions_reads_a_private_attribute():
 def test_the_scan_finds_a_private_read():
     source = "def f(F, self):\n    return F._step, self._ok, super()._x, F.__class__\n"
     assert private_reads(source, "m.py") == ["m.py:2: F._step"]
+
+
+def test_force_objects_are_asked_through_their_declared_interface():
+    """Both forces subclass Force (its defaults: nothing breaks, no dashpots, no
+    temperature), and no module asks a force object with getattr/hasattr."""
+    from solver.partitions.bonds import BondForce
+    from solver.partitions.force import Force, LinearForce
+    assert issubclass(LinearForce, Force) and issubclass(BondForce, Force)
+    assert (LinearForce.bonded, LinearForce.break_strain, LinearForce.broken) == (False, None, ())
+    assert BondForce.bonded and not BondForce.linear
+    found = []
+    for p in sorted((ROOT / "solver").rglob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                    and node.func.id in ("getattr", "hasattr") and node.args \
+                    and "force" in ast.unparse(node.args[0]).split("."):
+                found.append(f"{p.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}")
+    assert found == [], "\n".join(found)

@@ -125,7 +125,7 @@ class FieldWriter(Observer):
         local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dim),
                   p.V[:p.n_own].reshape(-1, self.dim)) for p in self.parts]
         damage = [(p.layout.owned, p.force.damage()) for p in self.parts
-                  if getattr(p.force, "break_strain", None) is not None]
+                  if p.force.break_strain is not None]
         chunks = self.comm.gather((local, damage), root=0) if self.comm.size > 1 else \
             [(local, damage)]
         if self.comm.rank != 0:

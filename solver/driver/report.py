@@ -92,15 +92,15 @@ class Report:
 def bond_attrs(part) -> dict:
     """Breakable bonds of a piece: how many broke, the energy they released."""
     force = part.force
-    if not hasattr(force, "broken"):
+    if not force.bonded:
         return {}
     return {"bonds_broken": len(force.broken), "released_energy": force.released}
 
 
 def broken_bonds(parts, comm):
     """Every broken bond of the run, by time (rank 0), or None without breakable bonds."""
-    local = [row for p in parts for row in getattr(p.force, "broken", [])]
-    breakable = any(getattr(p.force, "break_strain", None) is not None for p in parts)
+    local = [row for p in parts for row in p.force.broken]
+    breakable = any(p.force.break_strain is not None for p in parts)
     if comm.size > 1:
         chunks = comm.gather((breakable, local), root=0)
         if comm.rank != 0:

@@ -67,7 +67,7 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
         n = p.n_own
         local.append((p.name, p.layout.owned, p.state[:, :n].copy(),
                       np.array([p.work, p.dissipated]), p.steps,
-                      p.load_memory(), list(getattr(p.force, "broken", ()))))
+                      p.load_memory(), list(p.force.broken)))
     chunks = comm.gather(local, root=0) if comm.size > 1 else [local]
     if comm.rank != 0:
         return None
@@ -115,8 +115,7 @@ def restore(data: dict, parts, scheme, guard):
         p.dissipated = float(work[1]) if first and work.size > 1 else 0.0
         p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
                                        saved["load_values"].tolist())))
-        if hasattr(p.force, "restore_broken"):
-            p.force.restore_broken(saved["broken"])
+        p.force.restore_broken(saved["broken"])
     scheme.synchronise()
     scheme.restore_memory(data.get("scheme") or {})
     guard.restore(data["guard"])

@@ -102,7 +102,7 @@ class StressProbes:
         for part in parts:
             blocks, rows = [], []
             current = []
-            nonlinear = not getattr(part.force, "linear", True)
+            nonlinear = not part.force.linear
             for probe in scene.probes:
                 loc = part.layout.local(np.array([probe.node]))[0]
                 if not 0 <= loc < part.layout.n_owned:
@@ -115,7 +115,7 @@ class StressProbes:
                     self.thermal[probe.name] = (np.concatenate([a for a, _ in th]),
                                                 np.concatenate([w for _, w in th]))
                 if nonlinear:            # the probe's bonds, found once
-                    bonds = np.flatnonzero((part.force.i == loc) | (part.force.j == loc))
+                    bonds = part.force.bonds_at(loc)
                     current.append((probe.name, loc, bonds, probe.component,
                                     mdl.mass[probe.node] / rho))
                 conn = np.unique(np.concatenate([[probe.node], nodes]))

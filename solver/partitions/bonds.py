@@ -30,12 +30,14 @@ import numpy as np
 
 from solver.petscutil import init, vec_on
 from solver.partitions.contact import Contact
+from solver.partitions.force import Force
 
 
-class BondForce:
+class BondForce(Force):
     """f_int(u) of a dem partition with geometrically nonlinear, breakable bonds."""
 
     linear = False
+    bonded = True
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
                  contact=None, heat=None, node_mass=None):
@@ -112,6 +114,10 @@ class BondForce:
             self.viscous = None                  # the partition then makes no call per step
 
     # ---------------------------------------------------------------- state
+    def bonds_at(self, node) -> np.ndarray:
+        """The bonds (indices) that end at local node ``node``."""
+        return np.flatnonzero((self.i == node) | (self.j == node))
+
     def positions(self, u_vec):
         """Positions X + u of the held and ghost particles (refreshing the ghosts:
         collective), in a buffer the next call overwrites."""

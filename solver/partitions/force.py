@@ -15,7 +15,33 @@ from __future__ import annotations
 import numpy as np
 
 
-class LinearForce:
+class Force:
+    """The declared interface of a partition's force object.  Every force has
+    ``internal(u, out)``, ``energy(part)``, ``tangent()``, ``blocks`` and
+    ``destroy()``; the defaults below describe a force with no bonds to break,
+    no dashpots and no temperature, so callers ask ``force.bonded`` or
+    ``force.break_strain is not None`` instead of probing attributes."""
+
+    linear = True              # f_int = -K u with a constant K
+    bonded = False             # bonds that break and release energy (BondForce)
+    break_strain = None        # bonds break beyond this strain (None: nothing breaks)
+    broken = ()                # this rank's broken bonds: (t, midpoint..., strain, T, i, j)
+    released = 0.0             # the strain energy broken bonds released
+    viscous = None             # viscous(v, out) -> dissipated power (contact dashpots), or None
+
+    def set_temperature(self, T_node, count=True) -> float:
+        """Follow model-node temperatures; returns the work it does (none here)."""
+        return 0.0
+
+    def restore_broken(self, rows):
+        """Take the broken bonds of a checkpoint (nothing breaks here)."""
+
+    def damage(self):
+        """Per-node damage for the fields (None: nothing breaks)."""
+        return None
+
+
+class LinearForce(Force):
     """f_int(u) = -K u with K assembled once from element ``blocks``."""
 
     linear = True

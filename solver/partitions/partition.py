@@ -153,7 +153,7 @@ class Partition:
         self.built = []                         # what was built, for the log (subclasses add)
         self.force = self.build_force(model, layout)
         self.internal_force = self.force.internal     # internal_force(u, out): out = f_int(u)
-        self._viscous = getattr(self.force, "viscous", None)
+        self._viscous = self.force.viscous
         self.thermal = None
         heat = model.heat
         if heat is not None and heat.spec.expansion > 0 and self.force.blocks:
@@ -236,7 +236,7 @@ class Partition:
         goes into the external work unless not ``count``."""
         if self.thermal is not None:
             self.thermal.set_temperature(T_node)
-        if hasattr(self.force, "set_temperature"):
+        if self.force.bonded:                 # bond rest lengths and strengths follow T
             self.work += self.force.set_temperature(T_node, count)
 
     def track_thermal_work(self, count=True):
