@@ -1,7 +1,8 @@
 """Multi-time-step FEM-DEM structural dynamics with overlapping boundaries.
 
-Pipeline: scene (YAML) -> model (arrays) -> overlap layouts -> partitions
-(fem, dem; PETSc) -> system steps with one exchange each -> HDF5 output.
+Stages: scene (YAML, configuration) -> model (arrays, layouts) -> partitions
+(fem, dem; PETSc) -> coupling (system steps with one exchange each) -> driver
+(the run, HDF5 output) -> tools (command line, API).
 Entry points: ``python -m solver`` and the ``mts-solver`` console script
 (:mod:`solver.__main__`, :mod:`solver.tools.cli`) and the Python API
 (:mod:`solver.tools.api`): ``solver.load``, ``solver.scene_from_dict``, ``solver.run``.

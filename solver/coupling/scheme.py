@@ -22,6 +22,7 @@ and steps with ``initialise(model)``, ``synchronise()``, ``step(t0)``,
 from __future__ import annotations
 
 from solver.errors import LaunchError
+from solver.partitions import integrators
 from solver.scene import registry
 from solver.scene.schema import fail
 
@@ -125,11 +126,11 @@ def two_sides(scene, name: str):
     exactly two partitions, the implicit one with the largest ratio (SceneError
     otherwise)."""
     parts = scene.partitions
-    implicit = [p for p in parts if p.integrator == "implicit"]
+    implicit = [p for p in parts if integrators.kind(p).implicit]
     if len(parts) != 2 or len(implicit) != 1:
         fail("coupling.scheme", f"{name} couples exactly two partitions, one with "
              f"integrator implicit ({len(parts)} partitions, {len(implicit)} implicit given)")
     if implicit[0].ratio != scene.system_ratio:
         fail("coupling.scheme", f"{name}: the implicit partition '{implicit[0].name}' takes "
              "the large step, so its ratio must be the largest")
-    return implicit[0], next(p for p in parts if p.integrator != "implicit")
+    return implicit[0], next(p for p in parts if p is not implicit[0])

@@ -1,7 +1,7 @@
 """A partition: the state of its held nodes and the stepping of its integrator.
 
 Local vectors run over the partition's *held* DOFs: owned first, then the
-external layers (see :mod:`solver.coupling.overlap`).  The state is one array
+external layers (see :mod:`solver.model.layout`).  The state is one array
 ``state[3, n_held_dofs]`` whose rows are displacement, velocity and
 acceleration; PETSc Vecs ``u, v, a`` share that memory, so integrators use
 PETSc vector operations and the exchange copies whole rows with numpy.

@@ -25,7 +25,8 @@ USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--resta
        ./run.sh bench [--all]                 the benchmarks (benchmarks/bench_*.py; --all: the slow ones too)
        ./run.sh keys [--markdown]             every scene key: type, default, meaning
        ./run.sh schemes                       integrators and coupling schemes, stability limits
-(python -m solver ... is the same on one process.)
+mts-solver and python -m solver take the same forms (scene, sweep, plot, keys, schemes, --version)
+on one process; test and bench need the checkout's ./run.sh.
 PETSc options (e.g. -options_file configs/implicit_cg.opts, -log_view, -fem_mat_type baij) go
 to PETSc; every partition's PETSc objects carry the prefix <partition name>_ ;
 -exchange_measure_wait times the wait for the slower rank apart from the exchange.
@@ -110,10 +111,18 @@ def schemes_markdown() -> str:
     return "\n".join(lines)
 
 
-def update_docs(path: str):
+def update_docs(path: str | None):
     """Replace the generated tables (keys, and coupling schemes where the file
     has their markers) between the markers of ``path``."""
-    text = open(path).read()
+    if not path:
+        raise SceneError("keys --update needs the markdown file whose tables it replaces")
+    try:
+        text = open(path, encoding="utf-8").read()
+    except OSError as e:
+        raise SceneError(f"keys --update: {path}: {e.strerror}") from None
+    if "<!-- keys:" not in text and "<!-- schemes:" not in text:
+        raise SceneError(f"keys --update: {path} has no <!-- keys: --> or <!-- schemes: --> "
+                         "marker to put the tables between")
     for tag, table in (("keys", keys_markdown), ("schemes", schemes_markdown)):
         text = re.sub(rf"(<!-- {tag}:.*?-->\n).*?(<!-- /{tag} -->)",
                       lambda m: f"{m.group(1)}{table()}\n{m.group(2)}", text, flags=re.S)
@@ -164,12 +173,21 @@ def load_on_root(comm, path, overrides, store=None):
 def main(argv=None) -> int:
     one_blas_thread()                # before anything loads numpy
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help", "help") or "--help" in argv:
+    if argv[:1] in (["sweep"], ["plot"]):         # their own options and --help
+        # lazy: each command loads only what it runs (keys, schemes, --help start fast)
+        from solver.tools import plot, sweep
+        return (sweep if argv[0] == "sweep" else plot).main(argv[1:])
+    if not argv or argv[0] == "help" or "--help" in argv or "-h" in argv:
         print(USAGE)
         return 0 if argv else 2
     if argv[0] == "keys":
         if "--update" in argv:
-            update_docs(argv[argv.index("--update") + 1])
+            try:
+                rest = argv[argv.index("--update") + 1:]
+                update_docs(rest[0] if rest else None)
+            except SolverError as e:
+                print(f"error: {e}", file=sys.stderr, flush=True)
+                return e.exit_code
             return 0
         print_keys(markdown="--markdown" in argv)
         return 0

@@ -29,7 +29,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from solver.coupling.schemes import MAX_RANKS, USES_EXTERNAL
+from solver.coupling.schemes import scheme_class
 from solver.errors import SceneError
 from solver.model.binding import load
 
@@ -292,11 +292,12 @@ def sweep(args, scene, ranks, by_dt, points) -> int:
     rows, variants = [], []
     for n in ranks:
         for scheme in schemes:
-            if n > MAX_RANKS.get(scheme, n):
+            cls = scheme_class(scheme)               # the registry, asked now
+            if cls.max_ranks is not None and n > cls.max_ranks:
                 print(f"sweep: skipping {scheme} on {n} ranks (it runs on at most "
-                      f"{MAX_RANKS[scheme]})")
+                      f"{cls.max_ranks})")
                 continue
-            for treat in (treatments if scheme in USES_EXTERNAL else ["-"]):
+            for treat in (treatments if cls.uses_external else ["-"]):
                 variants.append((n, scheme, treat))
                 base = None
                 for x in points:
