@@ -42,7 +42,7 @@ from bench_setup import SCENE, make_mesh  # noqa: E402  (the block mesh and its 
 
 def operator(scene, p=0):
     """(blocks, held, mass with inf on held-still DOFs, dofmap, model) of partition ``p``."""
-    from solver.coupling import overlap
+    from solver.model import layout as overlap
     from solver.model import arrays
     from solver.coupling.schemes import scheme_class
     from solver.model.arrays import dof_masses

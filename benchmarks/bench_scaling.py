@@ -68,7 +68,7 @@ def partition_table(a, counts):
     system step, load imbalance, from the solver's own assignment and split."""
     from solver.partitions import distribute
     from solver.model import arrays as model_mod
-    from solver.coupling import overlap
+    from solver.model import layout as overlap
     from solver.partitions import ranks
     from solver import scene as scene_mod
     from solver.model import binding

@@ -18,7 +18,8 @@ import time
 
 import numpy as np
 
-from solver.partitions.assembly import assemble, group_matrices, nodal
+from solver.model.cell_blocks import group_matrices, nodal
+from solver.partitions.assembly import assemble
 from solver.model.elements import Elastic
 from solver.model.lattice import bond_triplets, square
 from solver.model.mesh import read

@@ -56,7 +56,7 @@ def test_lanczos_estimate_is_the_exact_omega_raised_by_its_margin(name, monkeypa
     bound where that is lower): never below the dense eigenvalue, and within
     the stated margin above it."""
     from conftest import raw_scene
-    from solver.coupling import overlap
+    from solver.model import layout as overlap
     from solver.model import arrays
     from solver.partitions import stability
     from solver.model.binding import from_dict

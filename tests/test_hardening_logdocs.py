@@ -354,7 +354,7 @@ def test_shells_on_solids_list_their_cells_not_the_rotation_ties(tmp_path):
     lines = element_steps.lines(scene, mdl)
     hexes = sum(len(c) for fam, c, _ in mdl.cells if fam.name == "hex8")
     shells = [c for fam, c, _ in mdl.cells if fam.name == "shell3"][0]
-    from solver.coupling.overlap import owner_map
+    from solver.model.layout import owner_map
     owner = owner_map(mdl.n_nodes, scene.partitions)
     index = [p.name for p in scene.partitions].index("block")
     on_block = int((owner[shells] == index).any(axis=1).sum())

@@ -10,7 +10,7 @@ from conftest import ROOT, raw_scene, refused, run_cli, write_scene
 from solver.errors import SceneError
 from solver.model.elements import Elastic
 from solver.model.mesh import read
-from solver.partitions.assembly import group_matrices
+from solver.model.cell_blocks import group_matrices
 
 STEEL = Elastic(200e9, 0.3, 7800.0, "plane_strain")
 
@@ -158,7 +158,7 @@ HEX = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 3), (2, 0, 2.5), (2, 2
 
 
 def test_trapezoid_face_traction_is_the_integral_of_n(tmp_path):
-    from solver.model.continuum import facet_forces
+    from solver.model.boundary import facet_forces
     names = [(3, 1, "solid"), (2, 2, "face")]
     face = (1, 4, 8, 5)                               # x = 0: (0,0,0) (0,2,0) (0,2,1) (0,0,3)
     path = msh22(tmp_path / "hex.msh", HEX, [(5, 1, 1, tuple(range(1, 9))),
@@ -183,7 +183,7 @@ def test_trapezoid_face_traction_is_the_integral_of_n(tmp_path):
     [(0, 0, 0), (2, 0, 0.3), (2.5, 2, -0.2), (0, 1, 0.4)],              # warped
     [(0, 0), (4, 0), (3, 2), (0.5, 1.5)]])                              # a 2D patch
 def test_quad_face_weights_match_fine_integration(X):
-    from solver.model.continuum import facet_weights
+    from solver.model.boundary import facet_weights
     X = np.array(X, dtype=float)
     w = facet_weights("quad4", X[None])[0]
     exact = _fine_weights(X)
@@ -193,7 +193,7 @@ def test_quad_face_weights_match_fine_integration(X):
 
 
 def test_line_and_triangle_weights_are_exact():
-    from solver.model.continuum import facet_weights
+    from solver.model.boundary import facet_weights
     assert facet_weights("line2", np.array([[[0.0, 0.0], [3.0, 4.0]]]))[0] == \
         pytest.approx([2.5, 2.5], rel=1e-15)
     tri = np.array([[[0.0, 0, 0], [2, 0, 0], [0, 3, 1]]])
@@ -404,12 +404,12 @@ def test_load_keys_that_would_be_ignored_are_refused(tmp_path, scene, sets, key,
 
 def test_group_load_component_sets_the_traction_axis():
     from solver.model.binding import from_dict
-    from solver.model import continuum
+    from solver.model import boundary, data
     raw = raw_scene("wave_bar_fem")
     raw["loads"][0].pop("direction")
     raw["loads"][0]["component"] = 1
     scene = from_dict(raw)
     assert scene.loads[0].direction == (0.0, 1.0) and scene.loads[0].component is None
-    loads = continuum.load_list(scene, continuum.model_data.read(scene.model), 2, 2)
+    loads = boundary.load_list(scene, data.read(scene.model), 2, 2)
     assert loads and all(pl.dof % 2 == 1 for pl in loads)
     assert sum(pl.scale for pl in loads) == pytest.approx(0.0024, rel=1e-12)   # the edge length

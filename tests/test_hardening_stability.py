@@ -45,7 +45,7 @@ def test_start_vector_is_a_function_of_the_dof_ids():
 
 
 def partition_operator(name, p=0):
-    from solver.coupling import overlap
+    from solver.model import layout as overlap
     from solver.model import arrays
     from solver.model.arrays import dof_masses
     from solver.model.binding import from_dict
@@ -172,7 +172,7 @@ def test_seconds_print_enough_digits_to_differ():
 def test_refusal_step_and_critical_step_read_differently(tmp_path):
     """six_dof's fem: a step 1e-7 above its critical step is refused with both
     numbers in as many digits as they need to differ."""
-    from solver.coupling import overlap
+    from solver.model import layout as overlap
     from solver.model import arrays
     from solver.partitions import stability
     from solver.model.binding import from_dict

@@ -2,7 +2,7 @@
 import numpy as np
 
 from solver.model import arrays as model
-from solver.coupling import overlap
+from solver.model import layout as overlap
 from solver.model.binding import load
 
 

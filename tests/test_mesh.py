@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from solver.partitions.assembly import assemble, group_matrices, nodal
+from solver.model.cell_blocks import group_matrices, nodal
+from solver.partitions.assembly import assemble
 from solver.model.elements import Elastic
 from solver.errors import SceneError
 from solver.model.mesh import read

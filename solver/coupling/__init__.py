@@ -1,7 +1,7 @@
 """Stage 4, the coupling: what one system step does.
 
 The partitions' layouts (boundary, interior and external layers) are the
-model's (:mod:`solver.model.layout`; ``overlap`` is its old import path);
+model's (:mod:`solver.model.layout`);
 ``exchange`` refreshes external copies with one VecScatter.  ``scheme``
 declares the interface of a coupling scheme
 (:class:`~solver.coupling.scheme.Scheme`: its facts and rules;

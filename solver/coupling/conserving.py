@@ -84,10 +84,6 @@ def interface(scene, mdl):
     if not iface.size:
         raise SceneError(f"coupling.scheme: conserving: partitions '{parts[f].name}' and "
                          f"'{parts[c].name}' share no element (no interface)")
-    if mdl.heat is not None:
-        raise SceneError("heat: coupling.scheme conserving couples linear partitions without heat")
-    if mdl.lattice is not None and BOND_GEOMETRIES[mdl.lattice.geometry].current:
-        raise SceneError("model.lattice: coupling.scheme conserving needs linear partitions")
     return f, c, iface
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from solver.laws import CONTACT_LAWS, ContactSettings
 from solver.model import data as model_data, heat, shell_model
 from solver.model.cell_blocks import group_matrices, kept, nodal
-from solver.model.boundary import facet_forces, facet_weights, fixed_dofs, load_list  # noqa: F401
+from solver.model.boundary import fixed_dofs, load_list
 from solver.model.dofmap import DofMap
 from solver.model.graph import Graph
 from solver.model.elements import elastic

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.model.cell_blocks import CellStiffness, group_matrices, kept, nodal  # noqa: F401 -- tests import them here
 from solver.petscutil import init
 from solver.errors import SceneError
 
