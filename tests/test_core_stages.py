@@ -366,3 +366,18 @@ def test_no_module_imports_a_private_name_of_another():
                 found += [f"{mod}: from {node.module} import {a.name}" for a in node.names
                           if a.name.startswith("_") and not a.name.startswith("__")]
     assert not found, "\n".join(found)
+
+
+def test_the_loop_calls_only_the_hooks_an_observer_overrides():
+    from solver.driver.observers import Observer, hooks
+
+    class Watch(Observer):
+        def stepped(self, step):
+            return step
+
+    class Other(Observer):
+        def after_step(self, step, t):
+            return None
+    a, b = Watch(), Other()
+    assert hooks([a, b], "before_step") == [] and hooks([a, b], "needs_poll") == []
+    assert hooks([a, b], "stepped") == [a.stepped] and hooks([a, b], "after_step") == [b.after_step]

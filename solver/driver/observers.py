@@ -41,6 +41,13 @@ class Observer:
         pass
 
 
+def hooks(observers, name: str) -> list:
+    """The bound ``name`` hooks of the observers that override the base's (in list
+    order): the step loop calls only those, not the do-nothing ones, every step."""
+    base = getattr(Observer, name)
+    return [getattr(ob, name) for ob in observers if getattr(type(ob), name) is not base]
+
+
 class Progress(Observer):
     """A progress line every ``seconds`` of stepping (checked every 256 system
     steps): time, elapsed and remaining wall time, the guard's latest energies."""

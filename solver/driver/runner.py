@@ -21,7 +21,7 @@ from solver.driver.comparison import add_reference, check_reference
 from solver.errors import RunFailed, SceneError, StabilityError, describe
 from solver.driver.checkpoint import Checkpoint
 from solver.driver.monitor import EnergyGuard, Probes
-from solver.driver.observers import Progress
+from solver.driver.observers import Progress, hooks
 from solver.driver.report import Report, RunResult
 from solver.driver import output, state, stress, provenance as prov
 from solver.driver.heating import Heating
@@ -218,13 +218,15 @@ def step_loop(scheme, observers, stop, start: int, n_steps: int, dt: float, rank
     failures = scheme.clocks.failures
     # fault injection for the tests: rank 0 sends itself SIGTERM after this system step
     kill_at = int(os.environ.get("MTS_SIGTERM_AT_STEP", "-1")) if rank == 0 else -1
+    before, stepped, polls, after = (hooks(observers, name) for name in
+                                     ("before_step", "stepped", "needs_poll", "after_step"))
     for s in range(start, n_steps):
         try:
-            for ob in observers:
-                ob.before_step(s)
+            for hook in before:
+                hook(s)
             scheme.step(s * dt)
-            for ob in observers:
-                ob.stepped(s + 1)
+            for hook in stepped:
+                hook(s + 1)
         except Exception as e:              # noqa: BLE001 -- stop together, keep the output
             stop.fail(s + 1, describe(e))
         k = s + 1
@@ -232,13 +234,13 @@ def step_loop(scheme, observers, stop, start: int, n_steps: int, dt: float, rank
             os.kill(os.getpid(), signal.SIGTERM)
         if failures:
             stop.fail(k, failures[0])
-        if stop.due(k) or any(ob.needs_poll(k) for ob in observers):
+        if stop.due(k) or any(poll(k) for poll in polls):
             ended = stop.poll(k)
             if ended:
                 k, failure, interrupted = ended
                 break
-        for ob in observers:
-            failure = ob.after_step(k, k * dt)
+        for hook in after:
+            failure = hook(k, k * dt)
             if failure:
                 break
         if failure:
