@@ -6,6 +6,7 @@
 #   ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [PETSc options]
 #   ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 2]
 #   ./run.sh plot RESULT.h5           plot probes vs reference, error, energies
+#   ./run.sh plan SCENE.yaml          predicted cost of uniform steps, levels, mass scaling
 #   ./run.sh bench [--all]           run the benchmark scripts (--all: the slow ones too)
 #   ./run.sh keys [--markdown]       every scene key with type, default and meaning
 #   ./run.sh schemes                 integrators and coupling schemes, stability limits
@@ -147,8 +148,9 @@ case "${1:-}" in
     shift
     cd "$here"                                     # the suite runs in the project
     # two workers, each taking whole test files (module fixtures run once);
-    # MTS_TEST_WORKERS=0 runs in this process, as plain pytest does
-    exec "$PY" -m pytest -q -n "${MTS_TEST_WORKERS:-2}" --dist loadfile tests "$@"
+    # MTS_TEST_WORKERS=0 runs in this process, as plain pytest does.  Without a
+    # path pytest collects its testpaths (pyproject.toml: tests); with one, just it
+    exec "$PY" -m pytest -q -n "${MTS_TEST_WORKERS:-2}" --dist loadfile "$@"
     ;;
   sweep)
     shift
@@ -157,6 +159,10 @@ case "${1:-}" in
   plot)
     shift
     exec "$PY" -m solver.tools.plot "$@"
+    ;;
+  plan)
+    shift
+    exec "$PY" -m solver.tools.plan "$@"
     ;;
   bench)
     shift
