@@ -73,6 +73,8 @@ def test_shipped_configs_end_on_a_system_step():
     from solver.scene.file import anchor_paths, yaml_load
     for path in sorted((ROOT / "configs").glob("*.yaml")):
         scene = parsed(anchor_paths(yaml_load(path.read_text()), path.parent))
+        if scene.partitions == "auto":      # the levels make the system step (test_levels.py)
+            continue
         assert abs(scene.n_system_steps * scene.system_dt - scene.time.end) \
             <= 1e-9 * scene.time.end, path.name
 

@@ -41,6 +41,7 @@ class Scheme:
     uses_external: bool        # whether its partitions take coupling.external
     max_ranks: int | None      # the most ranks it runs on (None: any)
     dropped = "running anyway"  # what running anyway gives up when built_problems are waived
+    levels = False             # whether partitions: auto (one levelled partition) may use it
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -107,6 +107,7 @@ class Clocks:
 
 class ConcurrentOverlap(Scheme):
     name = "overlap"
+    levels = True
     summary = ("concurrent scheme of Li et al. (2023), partitions advance from the same "
                "system-step state and exchange once per system step")
     about = ("Li et al.'s (2023) concurrent scheme: the partitions advance side by side from the "

@@ -12,7 +12,7 @@ from solver.collective import on_root
 from solver.model import layout as overlap
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
-from solver.partitions import integrators
+from solver.partitions import integrators, levels
 
 
 def _silent(*_):
@@ -30,6 +30,7 @@ class Assembly:
     parts: list
     scheme: object
     freqs: dict
+    scene: object = None          # the scene built (levels and time.dt made: resolve)
 
     def destroy(self):
         for part in self.parts:
@@ -48,12 +49,43 @@ def run_flags(petsc_options) -> tuple[list, bool]:
     return [o for o in options if o != MEASURE_WAIT], MEASURE_WAIT in options
 
 
-def build(scene, comm, say=_silent, store=None, measure_wait: bool = False) -> Assembly:
+def _model(scene, store):
+    treatments = scheme_class(scene.coupling.scheme).treatments(scene)
+    return model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments), store)
+
+
+def resolve(scene, comm, store=None, say=_silent):
+    """(the scene with its levels, time.dt and mass scaling made, rank 0's
+    whole model or None): ``partitions: auto``, ``time.dt: auto`` and
+    ``time.mass_scaling`` need the model (:mod:`solver.partitions.levels`);
+    other scenes come back as they are, with no model."""
+    if not levels.needs(scene):
+        return scene, None
+
+    def made():
+        mdl = _model(scene, store)
+        return levels.resolve(scene, mdl)
+    out = on_root(comm, made, share=False)
+    resolved, mdl, lines = out if out is not None else (None, None, ())
+    for line in lines:
+        say(f"[solver]   {line}")
+    if comm.size > 1:
+        resolved = comm.bcast(resolved)
+    return resolved, mdl
+
+
+def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
+          model=None) -> Assembly:
     """Check the launch and the steps, then build this rank's share of the run.
     ``store``: the run's :class:`~solver.model.data.ModelData` (rank 0 builds the
     model from what binding read); ``measure_wait``: time the wait for the slower
-    rank apart from each exchange (a barrier before it)."""
+    rank apart from each exchange (a barrier before it); ``model``: rank 0's
+    model when :func:`resolve` built it (levels, scaled masses)."""
     init()
+    prebuilt = bool(comm.allreduce(model is not None))
+    if levels.needs(scene) and not prebuilt:
+        scene, model = resolve(scene, comm, store, say)
+        prebuilt = True
     size = comm.size
     n_part = len(scene.partitions)
     scheme_cls = scheme_class(scene.coupling.scheme)
@@ -64,8 +96,7 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False) -> A
     Dt = scene.system_dt
 
     # the whole model on rank 0 only; the partitions stage sends every rank its share
-    mdl = on_root(comm, model_mod.build, scene, overlap.layer_counts(scene.partitions, treatments),
-                  store, share=False)
+    mdl = model if prebuilt else on_root(comm, _model, scene, store, share=False)
     say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
         f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
     for note in mdl.notes if mdl is not None else ():
@@ -103,4 +134,4 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False) -> A
     if not_built:
         say(f"[solver]   not built: {', '.join(not_built)}")
     scheme.initialise(mdl)
-    return Assembly(mdl, layouts, parts, scheme, freqs)
+    return Assembly(mdl, layouts, parts, scheme, freqs, scene)

@@ -49,7 +49,8 @@ class Report:
             "layers": len(part.layout.layers), "boundary": part.layout.boundary,
             "omega_max": freqs[part.name][0].omega_max,
             "critical_step": freqs[part.name][1],
-            "exchange_wall_time": x_wall, **bond_attrs(part)} for part in parts}
+            "exchange_wall_time": x_wall, **bond_attrs(part), **level_attrs(part)}
+            for part in parts}
         t_axis = np.arange(n_sys + 1) * Dt
         gathered, part_attrs = {}, {}
         for pr, pa in comm.allgather((self.probes.histories(t_axis, done), local_parts)):
@@ -125,3 +126,15 @@ def wait_attrs(clocks, comm) -> dict:
     if any(w is None for w in waits):
         return {}
     return {"exchange_wait_time_per_rank": np.array(waits)}
+
+
+def level_attrs(part) -> dict:
+    """A levelled partition (partitions: auto): its fine step, level ratios and
+    the mass that mass scaling added; nothing for other partitions."""
+    levels = getattr(part.spec, "levels", None)
+    if levels is None:
+        return {}
+    out = {"fine_dt": levels.h, "level_ratios": np.array(levels.ratios)}
+    if levels.scaling is not None:
+        out.update(added_mass=levels.scaling.added, added_mass_fraction=levels.scaling.fraction)
+    return out

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from solver.model import layout as overlap
-from solver.driver.build import build
+from solver.driver.build import build, resolve
 from solver.driver.comparison import add_reference, check_reference
 from solver.errors import RunFailed, SceneError, StabilityError, describe
 from solver.driver.checkpoint import Checkpoint
@@ -57,6 +57,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     comm = comm or MPI.COMM_WORLD
     rank = comm.rank
     say = log if rank == 0 else _silent
+    scene, model = resolve(scene, comm, store, say)      # partitions / time.dt: auto, mass scaling
     saved = state.read(restart, scene, comm) if restart else None
     problem = comm.bcast(output.check_writable(scene.output_file, restart, overwrite)
                          if rank == 0 else None)
@@ -72,7 +73,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         problem = comm.bcast(problem)
         if problem:
             raise problem
-    asm = build(scene, comm, say, store, measure_wait)
+    asm = build(scene, comm, say, store, measure_wait, model)
     mdl, parts, scheme = asm.model, asm.parts, asm.scheme
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 

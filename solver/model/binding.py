@@ -22,6 +22,7 @@ from solver.model.elements import FAMILIES
 from solver.model.shell_model import SHELL3
 from solver.scene import file as scene_file
 from solver.scene.model_spec import DOF_NAMES
+from solver.scene.sections import AUTO, Partition
 from solver.scene.schema import fail, shown
 from solver.model.shell_model import triangles
 from solver.model.boundary import fixed_dofs
@@ -56,6 +57,8 @@ def bind(scene, store=None):
     reuses what binding read), or None to read afresh."""
     store = store if store is not None else model_data.ModelData()
     data = store.read(scene.model)
+    if scene.partitions == AUTO:
+        scene = dataclasses.replace(scene, partitions=(_everything(scene, data),))
     continuum = scene.model.kind == "continuum"
     zone = None
     if continuum:
@@ -204,6 +207,15 @@ def _used(data, body, zone, n, shells=()):
     if zone is not None:
         used[zone.core_ids] = True
     return used
+
+
+def _everything(scene, data):
+    """``partitions: auto`` before levelling: one partition over the whole body
+    (``integrator: levels``; solver.partitions.levels makes the levels)."""
+    where = dict(group=scene.model.body) if scene.model.kind == "continuum" else \
+        dict(nodes=tuple(range(model_data.n_nodes(data))))
+    return Partition(name="auto", method="fem", integrator="levels", ratio=1, beta=0.0,
+                     gamma=0.5, **where)
 
 
 def _owned_nodes(scene, data, n, zone=None) -> list[tuple[int, ...]]:

@@ -35,6 +35,9 @@ import math
 
 import numpy as np
 
+EPS = 2e-3           # lambda_max is estimated as theta / (1 - EPS) ...
+FAILURE = 1e-6       # ... after the steps that make it too low less likely than this
+
 
 def steps(n: int, eps: float, failure: float) -> int:
     """Lanczos steps after which theta < (1 - eps) lambda_max has probability

@@ -19,13 +19,17 @@ from solver.errors import RunFailed, SceneError
 
 # preconditioners that solve K_eff a = r exactly, so KSP preonly is a solve
 DIRECT_PCS = ("lu", "cholesky", "qr", "redundant", "svd")
+from solver.partitions import levels
 from solver.partitions.force import LinearForce
+from solver.partitions.integrators import Levelled
 from solver.partitions.partition import Partition
 from solver.petscutil import init, vec_on
 
 
 class FemPartition(Partition):
     method = "fem"
+    level_ops: dict = {}          # partitions: auto: ratio -> -K_r (levels.operators)
+    level_vecs: list = []         # their accelerations (subcycling.bind)
 
     def build_force(self, model, layout):
         blocks = model.stiffness_blocks(self.whole_held())
@@ -35,6 +39,8 @@ class FemPartition(Partition):
         self.built += [f"stiffness matrix {n}x{n} ({int(K.getInfo()['nz_used'])} nonzeros, "
                       f"type {K.getType()}, block size {K.getBlockSize()})", "lumped mass"]
         force = LinearForce(K, blocks)
+        if self.integrator.name == Levelled.name:     # partitions: auto
+            self.level_ops = levels.operators(self, blocks, self.integrator.levels)
         if self.integrator.needs_ksp:
             self._build_solver(force.blocks)
         return force
@@ -123,6 +129,8 @@ class FemPartition(Partition):
 
     def destroy(self):
         super().destroy()
+        for obj in [*self.level_ops.values(), *self.level_vecs]:
+            obj.destroy()
         if self.integrator.needs_ksp:
             self.ksp.destroy()
             for obj in self._mats:

@@ -187,8 +187,36 @@ class VelocityVerlet(Integrator):
         return step
 
 
-CATALOGUE = (Newmark, VelocityVerlet)           # the user texts (``about``) of ``schemes``
-KINDS = {cls.name: cls for cls in (ExplicitNewmark, ImplicitNewmark, VelocityVerlet)}
+@dataclass(frozen=True)
+class Levelled(Integrator):
+    """Velocity Verlet by element levels (``partitions: auto``): the elements of
+    ratio r act every r fine steps (:mod:`solver.partitions.subcycling`); the
+    partition's step is the largest ratio's."""
+
+    levels: object = None            # solver.partitions.levels.Levels
+    name: ClassVar[str] = "levels"
+    about = ("partitions: auto, integrator levels: velocity Verlet by element levels (the "
+             "impulse multiple-time-step method): the elements whose stable step allows r x "
+             "time.dt act every r fine steps, all nodes drift every fine step; symplectic, "
+             "second order; every level stable alone (omega_r r dt < 2, checked before "
+             "stepping)")
+
+    def critical_omega_h(self) -> float:
+        """The partition's own step is the largest level's: each level is
+        checked on its own operator when the partition is built."""
+        return float("inf")
+
+    def describe(self) -> str:
+        ratios = ", ".join(str(r) for r in self.levels.ratios)
+        return f"velocity Verlet by levels (ratios {ratios} x {self.levels.h:.4g} s)"
+
+    def bind(self, p):
+        from solver.partitions import subcycling  # lazy: subcycling imports stability, which imports this module
+        return subcycling.bind(p, self.levels)
+
+
+CATALOGUE = (Newmark, VelocityVerlet, Levelled)  # the user texts (``about``) of ``schemes``
+KINDS = {cls.name: cls for cls in (ExplicitNewmark, ImplicitNewmark, VelocityVerlet, Levelled)}
 
 
 def kind(spec) -> type:
@@ -202,4 +230,6 @@ def kind(spec) -> type:
 def make(spec) -> Integrator:
     """The integrator of a :class:`solver.scene.Partition`."""
     cls = kind(spec)
+    if cls is Levelled:
+        return cls(getattr(spec, "levels", None))
     return cls(spec.beta, spec.gamma) if issubclass(cls, Newmark) else cls()

@@ -7,7 +7,7 @@ drop out) for the operator the partition steps: its cells (fem) or its bonds
 and overlap cells (dem).
 
 - Up to ``EXACT_LIMIT`` DOFs: the exact eigenvalue (dense symmetric solve).
-- Up to ``PREBUILD_LIMIT``: Lanczos (:mod:`solver.partitions.lanczos`) on the
+- Up to ``PREBUILD_LIMIT``: Lanczos (:mod:`solver.model.lanczos`) on the
   sparse matrix on rank 0, before any PETSc object exists, so an unstable
   step is refused before anything is built.
 - Above: the same Lanczos on the partition's assembled PETSc operator, right
@@ -37,7 +37,8 @@ import numpy as np
 
 from solver.model.arrays import dof_masses
 from solver.errors import SceneError, StabilityError
-from solver.partitions import lanczos, integrators
+from solver.model import lanczos
+from solver.partitions import integrators
 from solver.model.dofmap import DofMap
 from solver.partitions.assembly import triplets
 from solver.petscutil import vec_on, init
@@ -46,8 +47,8 @@ from solver.partitions.contact import coordination, bound_stiffness
 EXACT_LIMIT = 300        # dense eigenvalues up to here
 DENSE_LIMIT = 3000       # dense eigenvalues when Lanczos does not converge, up to here
 PREBUILD_LIMIT = 20000   # Lanczos on rank 0 before PETSc up to here; on the PETSc operator above
-LANCZOS_EPS = 2e-3       # lambda_max is estimated as theta / (1 - LANCZOS_EPS) ...
-LANCZOS_FAILURE = 1e-6   # ... after the steps that make it too low less likely than this
+LANCZOS_EPS = lanczos.EPS          # lambda_max is estimated as theta / (1 - LANCZOS_EPS) ...
+LANCZOS_FAILURE = lanczos.FAILURE  # ... after the steps that make it too low less likely than this
 NOTHING = "nothing to step"
 
 

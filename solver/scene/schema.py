@@ -183,6 +183,9 @@ def convert(tp, value, path: str, meta=None):
         if len(inner) == 1 or (isinstance(value, dict) and len(sections) == 1):
             return convert(sections[0] if isinstance(value, dict) and sections else inner[0],
                            value, path, {**meta, "parse": None})
+        lists = [a for a in inner if typing.get_origin(a) is tuple]
+        if isinstance(value, list) and len(lists) == 1:     # a list: its own errors, not "is not"
+            return convert(lists[0], value, path, {**meta, "parse": None})
         for a in inner:
             try:
                 return convert(a, value, path, {**meta, "parse": None})
@@ -297,6 +300,8 @@ def describe(cls, prefix: str = "") -> list[tuple[str, str, str, str]]:
             for a in typing.get_args(inner):
                 if dataclasses.is_dataclass(a):
                     rows += describe(a, sub)
+                elif typing.get_origin(a) is tuple and dataclasses.is_dataclass(typing.get_args(a)[0]):
+                    rows += describe(typing.get_args(a)[0], f"{name}[].")   # a list, or a word
         elif dataclasses.is_dataclass(inner):
             rows += describe(inner, sub)
     return rows

@@ -22,13 +22,70 @@ from solver.scene.model_spec import ContinuumModel, NetworkModel, parse_model, p
 
 
 @dataclass(frozen=True)
+class LevelSettings:
+    max_ratio: int = key("partitions: auto: the largest step ratio of a level (its step "
+                         "max_ratio x time.dt)", 8, positive=True)
+    ratios: Literal["powers", "integers"] = key(
+        "partitions: auto: the ratios a level may take: powers (1, 2, 4, ... up to max_ratio, "
+        "which must then be a power of two) or integers (the divisors of max_ratio)", "powers")
+    buffer: int = key("partitions: auto: element layers around a finer level that step with "
+                      "it (the coarser kicks then land where the finer level's fast modes have "
+                      "died out: no resonance on the measured cases, docs/guide/levels.md)", 2,
+                      nonnegative=True)
+
+    def validate(self, path):
+        if self.ratios == "powers" and self.max_ratio & (self.max_ratio - 1):
+            fail(f"{path}.max_ratio", f"{self.max_ratio} is not a power of two (ratios: powers); "
+                 "use a power of two or ratios: integers")
+
+
+@dataclass(frozen=True)
+class MassScaling:
+    dt: float = key("the stable step every element is raised to [s]: an element whose bound "
+                    "step is below it gets its own mass scaled by (dt / step)^2 (docs/guide/"
+                    "levels.md)", positive=True)
+    max_added: float = key("refuse a target that adds more than this fraction of the model's "
+                           "mass", 0.05, positive=True)
+
+
+AUTO = "auto"
+
+
+def parse_step(value, path):
+    """``time.dt``: a positive number of seconds, or auto."""
+    if value == AUTO:
+        return AUTO
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        fail(path, f"expected a number or auto, got {shown(value)}")
+    if not math.isfinite(value) or value <= 0:
+        fail(path, f"must be positive, got {value}")
+    return float(value)
+
+
+@dataclass(frozen=True)
 class Time:
     end: float = key("end time of the run [s]: a whole number of system steps (time.dt x the "
                      "largest partition ratio; to a relative 1e-9 and at most 1e-3 of a step, "
                      "so 0.1 with steps of 1e-3 is 100); the run ends exactly there, and any "
                      "other end is refused, naming the two nearest whole-step ends",
                      positive=True)
-    dt: float = key("base step [s]; a partition steps ratio*dt", positive=True)
+    dt: float | Literal["auto"] = key(
+        "base step [s]; a partition steps ratio*dt.  auto (with partitions: auto): safety x "
+        "the critical step of the finest level, lowered so that end is a whole number of "
+        "system steps", parse=lambda value, path: parse_step(value, path),
+        choices_doc="float | auto")
+    safety: float = key("partitions: auto: a level's step is at most safety x the bound of "
+                        "its elements' stable steps; time.dt: auto takes safety x the finest "
+                        "level's critical step", 0.9, positive=True)
+    levels: LevelSettings = key("partitions: auto: the step ratios of the levels",
+                                LevelSettings())
+    mass_scaling: MassScaling | None = key(
+        "add mass to the elements whose stable step is below a target (as LS-DYNA's DT2MS); "
+        "the added mass is reported per level and in total", None)
+
+    def validate(self, path):
+        if self.safety > 1:
+            fail(f"{path}.safety", f"{self.safety:g} is above 1: a step beyond the stable one")
 
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
@@ -277,7 +334,9 @@ class Scene:
         "the structure: kind network (masses and springs) or continuum (gmsh mesh)",
         parse=parse_model, choices_doc="mapping with kind: network | continuum",
         variants=(NetworkModel, ContinuumModel))
-    partitions: tuple[Partition, ...] = key("partitions; each node is owned by exactly one")
+    partitions: tuple[Partition, ...] | Literal["auto"] = key(
+        "partitions; each node is owned by exactly one.  auto: levels by element step "
+        "(docs/guide/levels.md)")
     coupling: Coupling = key("how partitions exchange", Coupling())
     loads: tuple[Load, ...] = key("external forces", ())
     initial: Initial = key("initial state (zero where not given)", Initial())
@@ -323,6 +382,11 @@ class Scene:
         network are checked when the scene is bound (:mod:`solver.model.binding`)."""
         continuum = self.model.kind == "continuum"
         check_label(self.name, "name", "scene name")
+        if self.partitions == AUTO or self.time.dt == AUTO:
+            self._check_auto(continuum)
+            if self.partitions == AUTO:
+                self._check_rest(continuum)
+                return
         if not self.partitions:
             fail("partitions", "at least one partition is needed")
         names = set()
@@ -341,6 +405,41 @@ class Scene:
             if big % part.ratio:
                 fail(f"partitions[{p}].ratio", f"{part.ratio} does not divide the largest ratio {big}")
         self._check_end()
+        self._check_rest(continuum)
+
+    def _check_auto(self, continuum):
+        """``partitions: auto`` and ``time.dt: auto``: what they need (the levels
+        themselves are made when the model exists, solver.partitions.levels)."""
+        if self.partitions != AUTO:
+            fail("time.dt", "auto needs partitions: auto (hand-written partitions take a "
+                 "time.dt in seconds)")
+        if not self.scheme.levels:
+            fail("coupling.scheme", f"partitions: auto makes one levelled partition, coupled "
+                 f"within itself; {self.coupling.scheme} couples hand-written partitions "
+                 "(leave coupling.scheme out)")
+        if self.damping.active:
+            fail("damping", "partitions: auto steps undamped levels; Rayleigh damping needs "
+                 "hand-written partitions")
+        if self.heat is not None:
+            fail("heat", "partitions: auto levels linear elastic elements; heat needs "
+                 "hand-written partitions")
+        if continuum and self.model.lattice is not None:
+            fail("partitions", "auto levels the elements of a continuum or a network; a "
+                 "lattice (model.lattice) needs hand-written fem and dem partitions")
+        if isinstance(self.reference, MonolithicReference):
+            fail("reference", "partitions: auto: a monolithic reference needs a time.dt "
+                 "the levels divide; run it as its own scene")
+        if self.time.dt != AUTO:
+            n = self.time.end / self.time.dt
+            if abs(n - round(n)) > min(END_TOLERANCE * n, 1e-3) or n < 1 - END_TOLERANCE:
+                fail("time.end", f"{self.time.end:.12g} s is {n:.12g} steps of time.dt "
+                     f"{self.time.dt:.12g} s; partitions: auto needs a whole number (its "
+                     "levels divide them)")
+            if n > MAX_SYSTEM_STEPS:
+                fail("time.end", f"{self.time.end:.12g} s is {n:.3g} steps of {self.time.dt:.12g} "
+                     f"s; at most {MAX_SYSTEM_STEPS:.0e} are run")
+
+    def _check_rest(self, continuum):
         for i, ld in enumerate(self.loads):
             if ld.group is not None and not continuum:
                 fail(f"loads[{i}].group", "tractions on groups need a continuum model")

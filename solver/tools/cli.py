@@ -22,10 +22,11 @@ USAGE = """usage: ./run.sh [-n N] SCENE.yaml [--set key.path=value ...] [--resta
        ./run.sh test                          the test suite
        ./run.sh sweep SCENE.yaml --ratios 1,2,5 [-n 1,2] [--treatments ...] [--dts ...] [--schemes ...]
        ./run.sh plot RESULT.h5 [MORE.h5 ...] [--probe NAME] [-o FILE.png]
+       ./run.sh plan SCENE.yaml [--scaling 1.5,2,4]   predicted cost: uniform step, levels, mass scaling
        ./run.sh bench [--all]                 the benchmarks (benchmarks/bench_*.py; --all: the slow ones too)
        ./run.sh keys [--markdown]             every scene key: type, default, meaning
        ./run.sh schemes                       integrators and coupling schemes, stability limits
-mts-solver and python -m solver take the same forms (scene, sweep, plot, keys, schemes, --version)
+mts-solver and python -m solver take the same forms (scene, sweep, plot, plan, keys, schemes, --version)
 on one process; test and bench need the checkout's ./run.sh.
 PETSc options (e.g. -options_file configs/implicit_cg.opts, -log_view, -fem_mat_type baij) go
 to PETSc; every partition's PETSc objects carry the prefix <partition name>_ ;
@@ -173,10 +174,10 @@ def load_on_root(comm, path, overrides, store=None):
 def main(argv=None) -> int:
     one_blas_thread()                # before anything loads numpy
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv[:1] in (["sweep"], ["plot"]):         # their own options and --help
+    if argv[:1] in (["sweep"], ["plot"], ["plan"]):         # their own options and --help
         # lazy: each command loads only what it runs (keys, schemes, --help start fast)
-        from solver.tools import plot, sweep
-        return (sweep if argv[0] == "sweep" else plot).main(argv[1:])
+        from solver.tools import plan, plot, sweep
+        return {"sweep": sweep, "plot": plot, "plan": plan}[argv[0]].main(argv[1:])
     if not argv or argv[0] == "help" or "--help" in argv or "-h" in argv:
         print(USAGE)
         return 0 if argv else 2

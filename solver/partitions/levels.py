@@ -1,0 +1,338 @@
+"""Automatic multi-time-step levels: ``partitions: auto``, ``time.dt: auto``,
+``time.mass_scaling`` (docs/guide/levels.md).
+
+Every element gets the largest step ratio r (1, 2, 4, ... up to
+``time.levels.max_ratio``; or its divisors with ``time.levels.ratios:
+integers``) with r dt <= safety x its bound (:mod:`solver.model.element_bounds`):
+the bound is rigorous, so every level is stable alone.  The elements of one
+ratio form a *level*; the model becomes one fem partition whose integrator
+steps each level at its own step (:mod:`solver.partitions.subcycling`), its
+system step the largest ratio present.  One level only: the partition is the
+plain explicit one (the uniform run, bit for bit).
+
+``time.dt: auto``: dt is safety x the critical step of the finest level's
+assembled operator (Lanczos, as the guard computes it), found by a few
+fixed-point passes (a larger dt moves elements to finer levels), then
+lowered so that ``time.end`` is a whole number of system steps.
+
+:func:`resolve` runs on rank 0 with the whole model, before the partitions
+are planned, and returns the resolved scene (plain keys only, plus the
+element ratios the integrator looks up) and the model with scaled masses.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from solver.errors import SceneError, StabilityError
+from solver.model import element_bounds, lanczos
+from solver.model.arrays import dof_masses
+from solver.model.cell_blocks import kept
+from solver.partitions import stability
+from solver.partitions.assembly import triplets
+from solver.scene.sections import Partition
+
+FIXED_POINT_PASSES = 4
+BISECTIONS = 6           # when a pass overshoots: dt within 2^-6 of the largest that holds
+
+
+@dataclasses.dataclass(frozen=True)
+class LevelledPartition(Partition):
+    """The partition ``partitions: auto`` makes: every element of the model,
+    ``integrator: levels``, ``ratio`` the largest level; ``levels`` holds what
+    the integrator needs (:class:`Levels`)."""
+
+    levels: object = None
+
+
+class Levels:
+    """The element ratios of a levelled model and its level table.
+
+    ``lookup(conn)`` gives the ratio of elements by their node ids (any rank,
+    any share of the model: the table is keyed by the sorted node ids of
+    every element)."""
+
+    def __init__(self, h, ratios, bounds, per_block, scaling, lines):
+        self.h = h
+        self.ratios = tuple(int(r) for r in ratios)      # the ratios present, ascending
+        self.scaling = scaling
+        self.lines = lines
+        self._keys = {}
+        for b, r in zip(bounds, per_block):
+            width = b.conn.shape[1]
+            keys, rs = self._keys.get(width, (np.zeros((0, width), np.int64), np.zeros(0, np.int64)))
+            self._keys[width] = (np.concatenate([keys, np.sort(b.conn, axis=1)]),
+                                 np.concatenate([rs, r]))
+        for width, (keys, rs) in list(self._keys.items()):
+            view = _rows(keys)
+            order = np.lexsort(keys.T[::-1])
+            view, rs = view[order], rs[order]
+            # elements on the same nodes (parallel springs): the smallest ratio
+            first = np.r_[True, view[1:] != view[:-1]]
+            starts = np.flatnonzero(first)
+            self._keys[width] = (view[starts], np.minimum.reduceat(rs, starts))
+
+    def lookup(self, conn) -> np.ndarray:
+        conn = np.asarray(conn)
+        keys, rs = self._keys[conn.shape[1]]
+        view = _rows(np.sort(conn, axis=1))
+        at = np.searchsorted(keys, view)
+        at = np.minimum(at, keys.size - 1)
+        if not np.all(keys[at] == view):
+            raise SceneError("partitions: auto: an element the levels do not know (the model "
+                             "changed after levelling)")
+        return rs[at]
+
+
+def _rows(a):
+    """Rows of an int array as one sortable value each (bytes, big-endian)."""
+    a = np.ascontiguousarray(np.asarray(a, dtype=">i8"))
+    return a.view(np.dtype((np.void, a.dtype.itemsize * a.shape[1]))).ravel()
+
+
+def allowed(max_ratio: int, kind: str) -> np.ndarray:
+    """The step ratios a level may take: powers of two up to ``max_ratio``, or
+    its divisors (``integers``)."""
+    if kind == "integers":
+        return np.array([r for r in range(1, max_ratio + 1) if max_ratio % r == 0])
+    return 2 ** np.arange(int(math.log2(max_ratio)) + 1)
+
+
+def assign(bounds, h: float, ratios: np.ndarray, safety: float, buffer: int = 2
+           ) -> list[np.ndarray]:
+    """Per block: the largest allowed ratio r with r h <= safety x bound (1 at
+    least), then ``buffer`` times: every element takes the smallest ratio at
+    its nodes (a finer level grows by one element layer each time)."""
+    out = []
+    for b in bounds:
+        at = np.searchsorted(ratios * h, safety * b.steps, side="right") - 1
+        out.append(ratios[np.maximum(at, 0)])
+    for _ in range(buffer):
+        n = max(int(b.conn.max()) for b in bounds) + 1
+        node = np.full(n, np.iinfo(np.int64).max)
+        for b, r in zip(bounds, out):
+            np.minimum.at(node, b.conn.ravel(), np.repeat(r, b.conn.shape[1]))
+        out = [node[b.conn].min(axis=1) for b in bounds]
+    return out
+
+
+def level_omega(mdl, bounds, per_block, ratio, mass) -> float:
+    """omega_max of M^-1 K over the elements of one ratio (Lanczos on the
+    assembled sparse operator, as the guard computes it; 0: no element)."""
+    from scipy.sparse import coo_matrix  # lazy: scipy loads only where it is used
+
+    blocks = []
+    for b, r, (conn, Ke) in zip(bounds, per_block, model_blocks(mdl)):
+        keep = r == ratio
+        if keep.any():
+            blocks.append((conn[keep], subset(Ke, keep)))
+    if not blocks:
+        return 0.0
+    rows, cols, vals = triplets(blocks, mdl.dofmap)
+    n = mdl.n_dofs
+    fixed = np.asarray(mdl.fixed)
+    with np.errstate(divide="ignore"):
+        s = np.where(fixed | ~(mass > 0), 0.0, 1.0 / np.sqrt(np.where(mass > 0, mass, 1.0)))
+    A = coo_matrix((vals * s[rows] * s[cols], (rows, cols)), shape=(n, n)).tocsr()
+    ger = float(abs(A).sum(axis=1).max())
+    if ger == 0.0:
+        return 0.0
+    free = int(np.count_nonzero(s))
+    k = lanczos.steps(free, lanczos.EPS, lanczos.FAILURE)
+    B = A / ger
+    theta, done = lanczos.largest(B.dot, lanczos.start(np.arange(n)) * (s > 0), min(k, free))
+    lam = ger * (theta if done < k else theta / (1 - lanczos.EPS))
+    return float(np.sqrt(min(max(lam, 0.0), ger)))
+
+
+def model_blocks(mdl):
+    return [(np.asarray(c), K) for c, K in mdl.stiffness_blocks(np.arange(mdl.n_nodes)) if len(c)]
+
+
+def subset(Ke, keep):
+    return Ke.subset(keep) if hasattr(Ke, "subset") else Ke[keep]
+
+
+def table(bounds, per_block, h, dof_of) -> tuple[list[str], float]:
+    """The level table's lines and the predicted speed-up against one uniform
+    step: the cost of a level is its element matrix entries times its steps
+    per system step (the stepping's MatMult work)."""
+    ratios = sorted({int(r) for rs in per_block for r in np.unique(rs)})
+    R = max(ratios)
+    rows, total_uniform, total = [], 0.0, 0.0
+    for r in ratios:
+        n_el, entries, nodes, crit = 0, 0.0, [], np.inf
+        for b, rs in zip(bounds, per_block):
+            keep = rs == r
+            if not keep.any():
+                continue
+            n_el += int(keep.sum())
+            entries += float(keep.sum()) * (b.own.shape[1] * b.own.shape[2]) ** 2
+            nodes.append(np.unique(b.conn[keep]))
+            crit = min(crit, float(b.steps[keep].min()))
+        nodes = np.unique(np.concatenate(nodes))
+        cost = entries * R / r
+        total += cost
+        total_uniform += entries * R
+        rows.append((r, n_el, nodes.size, int(dof_of(nodes)), crit, cost))
+    lines = [f"levels: {'ratio':>5} {'elements':>9} {'nodes':>8} {'DOFs':>9} "
+             f"{'bound step [s]':>14} {'step [s]':>10} {'cost':>6}"]
+    for r, n_el, n_nodes, n_dofs, crit, cost in rows:
+        lines.append(f"levels: {r:>5} {n_el:>9} {n_nodes:>8} {n_dofs:>9} {crit:>14.4g} "
+                     f"{r * h:>10.4g} {100 * cost / total:>5.1f}%")
+    speedup = total_uniform / total if total else 1.0
+    lines.append(f"levels: predicted speed-up {speedup:.3g} x against one uniform step of "
+                 f"{h:.4g} s (element matrix work per system step; vector work not counted)")
+    return lines, speedup
+
+
+def needs(scene) -> bool:
+    """Whether the scene asks for anything this module resolves."""
+    return (scene.time.dt == "auto" or scene.time.mass_scaling is not None or
+            any(p.integrator == "levels" for p in scene.partitions))
+
+
+def resolve(scene, mdl):
+    """(resolved scene, model, log lines) on rank 0 with the whole model."""
+    levelled = any(p.integrator == "levels" for p in scene.partitions)
+    lines = []
+    t = scene.time
+    bounds = None
+    if levelled or t.mass_scaling is not None or t.dt == "auto":
+        try:
+            bounds = element_bounds.model_bounds(scene, mdl)
+        except element_bounds.NotCovered as e:
+            key = "partitions" if levelled else ("time.mass_scaling" if t.mass_scaling else "time.dt")
+            raise SceneError(f"{key}: auto levels and mass scaling bound every element's step "
+                             f"from its own matrices; this model has {e} (not covered): write "
+                             "the partitions and time.dt by hand") from None
+        if not bounds:
+            raise SceneError("partitions: auto: the model has no element to level")
+    scaling = None
+    if t.mass_scaling is not None:
+        scaling, mdl = scale_mass(scene, mdl, bounds)
+        lines.append(scaling.line())
+    if levelled:
+        mass = dof_masses(mdl, np.arange(mdl.n_nodes))
+        ratios = allowed(t.levels.max_ratio, t.levels.ratios)
+        if t.dt == "auto":
+            h = auto_dt(scene, mdl, bounds, ratios, mass, lines)
+            made = assign(bounds, h, ratios, t.safety, t.levels.buffer)
+            top = max(int(rs.max()) for rs in made)
+            n = max(1, math.ceil(t.end / (top * h) * (1 - 1e-12)))
+            h = t.end / (n * top)
+            ratios = ratios[ratios <= top]
+            scene = dataclasses.replace(scene, time=dataclasses.replace(t, dt=h))
+        else:
+            h = t.dt
+            steps = round(t.end / h)               # a whole number (Scene.validate)
+            ratios = ratios[steps % ratios == 0]   # the system step must divide time.end
+        per_block = assign(bounds, h, ratios, t.safety, t.levels.buffer)
+        present = sorted({int(r) for rs in per_block for r in np.unique(rs)})
+        rows, _ = table(bounds, per_block, h, mdl.dofmap.count)
+        lines += rows
+        lev = Levels(h, present, bounds, per_block, scaling, rows)
+        R = present[-1]
+        spec = dataclasses.replace(scene.partitions[0], integrator="levels" if len(present) > 1
+                                   else "explicit", ratio=R, beta=0.0, gamma=0.5)
+        spec = LevelledPartition(**{f.name: getattr(spec, f.name)
+                                    for f in dataclasses.fields(Partition)}, levels=lev)
+        scene = dataclasses.replace(scene, partitions=(spec,))
+        if len(present) == 1:
+            lines.append(f"levels: one level: the uniform explicit run at {R} x {h:.4g} s")
+    scene.scheme.validate(scene)          # the scheme's rules on the levelled partition
+    return scene, mdl, lines
+
+
+def scale_mass(scene, mdl, bounds):
+    spec = scene.time.mass_scaling
+    if mdl.kind != "continuum":
+        raise SceneError("time.mass_scaling: mass scaling adds element masses: continuum "
+                         "models only")
+    smallest = min(float(b.steps.min()) for b in bounds)
+    if spec.dt <= smallest:
+        raise SceneError(f"time.mass_scaling.dt: {spec.dt:.4g} s is at or below every element's "
+                         f"stable step (the smallest bound is {smallest:.4g} s): it adds no mass")
+    scaling = element_bounds.scale(bounds, mdl.n_nodes, spec.dt, float(np.sum(mdl.mass)))
+    if scaling.fraction > spec.max_added:
+        raise SceneError(f"time.mass_scaling.dt: {spec.dt:.4g} s adds {scaling.added:.4g} kg, "
+                         f"{100 * scaling.fraction:.3g} % of the model's {scaling.model_mass:.4g} "
+                         f"kg, above time.mass_scaling.max_added ({100 * spec.max_added:.3g} %)")
+    shells = mdl.shells
+    if shells is not None:
+        shells = dataclasses.replace(shells, inertia=shells.inertia + scaling.added_inertia)
+    return scaling, dataclasses.replace(mdl, mass=mdl.mass + scaling.added_mass, shells=shells)
+
+
+def auto_dt(scene, mdl, bounds, ratios, mass, lines) -> float:
+    """The largest dt found with dt <= safety x the critical step of the
+    finest level it makes (a larger dt moves elements to the finest level, so
+    a few passes): from safety x the smallest bound, which always holds."""
+    safety = scene.time.safety
+    h = safety * min(float(b.steps.min()) for b in bounds)
+    crit = h / safety
+
+    def finest(step):
+        per = assign(bounds, step, ratios, safety, scene.time.levels.buffer)
+        omega = level_omega(mdl, bounds, per, 1, mass)
+        return 2.0 / omega if omega > 0 else np.inf
+    crit = finest(h)
+    for _ in range(FIXED_POINT_PASSES):
+        candidate = safety * crit
+        if not np.isfinite(candidate) or candidate <= h * (1 + 1e-9):
+            break
+        c = finest(candidate)
+        if candidate > safety * c:               # too far: bisect between h and candidate
+            lo, hi = h, candidate
+            for _ in range(BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                c_mid = finest(mid)
+                if mid <= safety * c_mid:
+                    lo, crit = mid, c_mid
+                else:
+                    hi = mid
+            h = lo
+            break
+        h, crit = candidate, c
+    lines.append(f"time.dt auto: {h:.6g} s, the finest level's critical step {crit:.6g} s "
+                 f"(Lanczos) x {h / crit:.4g} (time.safety {safety:g})")
+    return h
+
+
+def level_blocks(blocks, levels, ratio):
+    """The block sets of the elements of one ratio."""
+    out = []
+    for conn, Ke in blocks:
+        if not len(conn):
+            continue
+        keep = levels.lookup(conn) == ratio
+        if keep.any():
+            out.append(kept(np.asarray(conn), Ke, keep))
+    return out
+
+
+def operators(p, blocks, levels) -> dict:
+    """{ratio: -K_r} of a levelled partition ``p`` over its held DOFs, each
+    checked before stepping: omega_max r dt < 2 with the full nodal masses
+    (Lanczos on the assembled operator; collective)."""
+    R = p.spec.ratio
+    h = p.dt / R
+    ops = {}
+    for r in (r for r in levels.ratios if r <= R):
+        K = p.operator(level_blocks(blocks, levels, r), scale=-1.0)
+        K.setName(f"{p.name}_level{r}")
+        ops[r] = K
+        fr = stability.from_operator(K, p.mass, p.fixed_dofs, p.held_dofs, f"{p.name} level {r}")
+        if fr.omega_max * r * h >= 2.0:
+            step, crit = stability.seconds(r * h, fr.critical_step(2.0))
+            for op in ops.values():
+                op.destroy()
+            raise StabilityError(f"partitions: auto: level {r} steps {step} s, beyond its "
+                                 f"critical step {crit} s (omega_max {fr.omega_max:.4g} rad/s, "
+                                 f"{fr.method}); lower time.dt or time.safety")
+        n = int(K.getInfo()["nz_used"])
+        p.built.append(f"level {r}: operator ({n} nonzeros), step {r * h:.4g} s, critical "
+                       f"{fr.critical_step(2.0):.4g} s ({fr.method})")
+    return ops
