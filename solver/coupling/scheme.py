@@ -12,12 +12,16 @@ stages call instead of testing the scheme's name:
   after building ``built_problems(scene, freqs)`` (with ``dropped``: what
   running anyway gives up) and ``refusal_context(scene, freqs)``;
 - ``treatments(scene)`` and ``build(scene, model, comm, say)``: the external-data
-  treatment of every partition, and the scheme ready to step on this rank.
+  treatment of every partition, and the scheme ready to step on this rank
+  (schemes built by the partitions stage also take ``assignment``: the ranks
+  to build on, :mod:`solver.driver.balance`).
 
 Defining the class registers it (:mod:`solver.scene.registry`).  A built scheme
-has ``parts``, ``layouts``, ``freqs``, ``model``, ``exchanges`` and ``clocks``
-and steps with ``initialise(model)``, ``synchronise()``, ``step(t0)``,
-``describe()``, ``memory()`` and ``restore_memory(memory)``.
+has ``parts``, ``layouts``, ``freqs``, ``model``, ``exchanges``, ``clocks`` and
+``assignment`` (the partitions stage's rank assignment; None for a scheme that
+places its partitions itself) and steps with ``initialise(model)``,
+``synchronise()``, ``step(t0)``, ``describe()``, ``memory()`` and
+``restore_memory(memory)``.
 """
 from __future__ import annotations
 
@@ -42,6 +46,7 @@ class Scheme:
     max_ranks: int | None      # the most ranks it runs on (None: any)
     dropped = "running anyway"  # what running anyway gives up when built_problems are waived
     levels = False             # whether partitions: auto (one levelled partition) may use it
+    assignment = None          # a built scheme's ranks.Assignment (None: placed by the scheme)
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -128,14 +128,17 @@ class ConcurrentOverlap(Scheme):
         return [scene.coupling.external for _ in scene.partitions]
 
     @classmethod
-    def build(cls, scene, model, comm, say):
-        """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme."""
-        return cls(scene, build_partitions(scene, model, comm, cls.treatments(scene), say), comm)
+    def build(cls, scene, model, comm, say, assignment=None):
+        """The partitions stage (:mod:`solver.partitions.partitioning`), then the scheme;
+        ``assignment``: the ranks to build on instead of those by estimated cost."""
+        return cls(scene, build_partitions(scene, model, comm, cls.treatments(scene), say,
+                                           assignment), comm)
 
     def __init__(self, scene, built, comm):
         """``built``: the partitions stage's :class:`~solver.partitions.partitioning.Partitions`."""
         self.parts, self.layouts, self.freqs, self.model = (built.parts, built.layouts,
                                                              built.freqs, built.model)
+        self.assignment = built.assignment
         self.exchanges = self._exchanges(scene, built, comm)
         self.clocks = Clocks(self.parts, [p.name for p in scene.partitions], comm)
 

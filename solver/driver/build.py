@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from solver.model import arrays as model_mod, element_steps
 from solver.collective import on_root
+from solver.driver import balance
 from solver.model import layout as overlap
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
@@ -76,9 +77,11 @@ def resolve(scene, comm, store=None, say=_silent):
 
 def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
           model=None) -> Assembly:
-    """Check the launch and the steps, then build this rank's share of the run.
-    ``store``: the run's :class:`~solver.model.data.ModelData` (rank 0 builds the
-    model from what binding read); ``measure_wait``: time the wait for the slower
+    """Check the launch and the steps, then build this rank's share of the run
+    (with ``balance: measured``, on the ranks of the measured costs:
+    :mod:`solver.driver.balance`).  ``store``: the run's
+    :class:`~solver.model.data.ModelData` (rank 0 builds the model from what
+    binding read); ``measure_wait``: time the wait for the slower
     rank apart from each exchange (a barrier before it); ``model``: rank 0's
     model when :func:`resolve` built it (levels, scaled masses)."""
     init()
@@ -107,6 +110,8 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
         for line in element_steps.lines(scene, mdl):
             say(f"[solver]   {line}")
     scheme = scheme_cls.build(scene, mdl, comm, say)
+    if scene.balance == "measured":          # timed, then kept or built again on other ranks
+        scheme = balance.balanced(scene, scheme_cls, scheme, mdl, comm, say)
     if measure_wait:
         scheme.clocks.measure_wait()
     parts, layouts, freqs, mdl = scheme.parts, scheme.layouts, scheme.freqs, scheme.model
@@ -133,5 +138,5 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
         not_built.append("exchange (single partition)")
     if not_built:
         say(f"[solver]   not built: {', '.join(not_built)}")
-    scheme.initialise(mdl)
+    scheme.initialise(mdl)          # (a scheme balance kept: the state it was put back to)
     return Assembly(mdl, layouts, parts, scheme, freqs, scene)

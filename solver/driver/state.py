@@ -51,15 +51,18 @@ def _plain(obj):
 
 
 def fingerprint(scene) -> str:
-    """Hash of everything that determines the trajectory (not time.end, not output)."""
+    """Hash of everything that determines the trajectory (not time.end, not output,
+    not how the ranks were balanced)."""
     data = _plain(scene)
-    data.pop("output", None)
+    for name in ("output", "balance", "balance_steps"):
+        data.pop(name, None)
     data["time"].pop("end", None)
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:32]
 
 
 def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
-    """This run's state after ``k`` system steps, merged on rank 0 (None elsewhere)."""
+    """This run's state after ``k`` system steps, merged on rank 0 (None elsewhere);
+    ``guard`` None: without the energy guard's (a run not yet watched)."""
     memory = scheme.memory() if scheme is not None else {}
     memories = comm.gather(memory, root=0) if comm.size > 1 else [memory]
     local = []
@@ -95,11 +98,14 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
     for m in memories:
         for key, value in m.items():
             merged_memory.setdefault(key, value)
-    return {"step": k, "parts": parts_out, "guard": guard.memory(), "scheme": merged_memory}
+    return {"step": k, "parts": parts_out, "guard": guard.memory() if guard is not None else None,
+            "scheme": merged_memory}
 
 
 def restore(data: dict, parts, scheme, guard):
-    """Put checkpoint ``data`` (on every rank) into a freshly built run."""
+    """Put checkpoint ``data`` (on every rank) into a freshly built run, or into
+    one that stepped since ``data`` was collected (:mod:`solver.driver.balance`);
+    ``guard`` None: the state without the energy guard's."""
     for p in parts:
         saved = data["parts"][p.name]
         nodes, uva = saved["nodes"], saved["uva"]
@@ -118,7 +124,8 @@ def restore(data: dict, parts, scheme, guard):
         p.force.restore_broken(saved["broken"])
     scheme.synchronise()
     scheme.restore_memory(data.get("scheme") or {})
-    guard.restore(data["guard"])
+    if guard is not None:
+        guard.restore(data["guard"])
 
 
 def group_writer(checkpoint):

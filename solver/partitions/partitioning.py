@@ -45,20 +45,23 @@ class Plan:
     problems: list
 
 
-def plan(scene, mdl, size, treatments):
+def plan(scene, mdl, size, treatments, assignment=None):
     """On one rank, with the whole model: the node graph, every partition's
-    layout, the rank assignment, every partition's distribution over its
-    ranks, the dense stability check, and for every rank its share: the graph
-    rows of the nodes it holds (its preallocation) and the model's cells and
-    bonds that touch them.  Returns (Plan, [(graph rows, model share)] per rank)."""
+    layout, the rank assignment (by estimated cost, unless ``assignment`` is
+    given: a :class:`~solver.partitions.ranks.Assignment` by measured cost),
+    every partition's distribution over its ranks, the dense stability check,
+    and for every rank its share: the graph rows of the nodes it holds (its
+    preallocation) and the model's cells and bonds that touch them.  Returns
+    (Plan, [(graph rows, model share)] per rank)."""
     R = scene.system_ratio
     graph = mdl.graph()
     layouts = overlap.derive(graph, scene.partitions,
                              overlap.layer_counts(scene.partitions, treatments))
-    costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
-             for lay, p in zip(layouts, scene.partitions)]
-    assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts],
-                              [p.ranks for p in scene.partitions])
+    if assignment is None:
+        costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
+                 for lay, p in zip(layouts, scene.partitions)]
+        assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts],
+                                  [p.ranks for p in scene.partitions])
     dists = [distribute.split(lay, graph, len(assignment.ranks[p]))
              for p, lay in enumerate(layouts)]
     freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
@@ -71,13 +74,15 @@ def plan(scene, mdl, size, treatments):
     return Plan(layouts, assignment, dists, freqs, problems), shares
 
 
-def build_partitions(scene, mdl, comm, treatments, say) -> Partitions:
+def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Partitions:
     """Rank 0 plans with the whole model (``mdl``; other ranks pass None); every
     rank gets the plan's small arrays and only its share of the graph and the
-    model, then builds its pieces."""
+    model, then builds its pieces.  ``assignment``: the ranks to use instead of
+    those by estimated cost (:mod:`solver.driver.balance`)."""
     rank, size = comm.rank, comm.size
     R = scene.system_ratio
-    decided, shares = on_root(comm, plan, scene, mdl, size, treatments, share=False) or (None, None)
+    decided, shares = on_root(comm, plan, scene, mdl, size, treatments, assignment,
+                              share=False) or (None, None)
     if size > 1:
         decided = comm.bcast(decided)
         graph, mdl = comm.scatter(shares)

@@ -1,8 +1,9 @@
 """Which MPI ranks serve which partition.
 
 A partition's cost per system step is estimated as the nonzeros of its owned
-rows (stiffness or bond operator) times its steps per system step.  With N
-ranks and P partitions:
+rows (stiffness or bond operator) times its steps per system step, or, with
+``balance: measured`` (:mod:`solver.driver.balance`), measured: its wall per
+system step times its ranks.  With N ranks and P partitions:
 
 * ``partitions[].ranks`` given for every partition: they must add up to N;
   given for some: the others share the remaining ranks by cost.
@@ -28,8 +29,9 @@ from solver.errors import LaunchError
 @dataclass(frozen=True)
 class Assignment:
     ranks: tuple[tuple[int, ...], ...]     # world ranks of every partition
-    costs: tuple[float, ...]               # estimated nonzeros x steps per system step
+    costs: tuple[float, ...]               # per system step: nonzeros x steps, or s x ranks
     how: str                               # why, for the log
+    basis: str = "estimated"               # estimated (nonzeros x steps) or measured (s x ranks)
 
     def partitions_on(self, rank: int) -> list[int]:
         return [p for p, rs in enumerate(self.ranks) if rank in rs]
@@ -38,20 +40,47 @@ class Assignment:
         total = sum(self.costs) or 1.0
         out = [f"[solver] ranks: {self.how}"]
         for name, rs, c in zip(names, self.ranks, self.costs):
-            span = f"rank {rs[0]}" if len(rs) == 1 else f"ranks {rs[0]}-{rs[-1]}"
-            out.append(f"[solver]   {name}: {span} ({len(rs)}), cost {c:.3g} nonzeros x steps "
-                       f"per system step ({100 * c / total:.0f}%)")
+            amount = (f"measured cost {1e3 * c:.3g} ms x ranks" if self.basis == "measured"
+                      else f"cost {c:.3g} nonzeros x steps")
+            out.append(f"[solver]   {name}: {span(rs)} ({len(rs)}), {amount} per system step "
+                       f"({100 * c / total:.0f}%)")
         return out
+
+    def rank_times(self, walls, size: int) -> np.ndarray:
+        """Predicted time per system step of every rank when partition p takes
+        ``walls[p]`` on its ranks: the sum over the partitions it serves."""
+        out = np.zeros(size)
+        for rs, w in zip(self.ranks, walls):
+            out[list(rs)] += w
+        return out
+
+
+def span(rs) -> str:
+    """'rank 3' or 'ranks 1-4' for a contiguous rank tuple."""
+    return f"rank {rs[0]}" if len(rs) == 1 else f"ranks {rs[0]}-{rs[-1]}"
+
+
+def waits(times) -> np.ndarray:
+    """Each rank's wait per system step for the slowest: max(times) - times."""
+    times = np.asarray(times, dtype=float)
+    return times.max(initial=0.0) - times
+
+
+def measured_cost(wall_per_system_step: float, n_ranks: int) -> float:
+    """A partition's measured cost: its wall per system step times its ranks
+    (the rank-seconds one system step takes; the assignment divides them)."""
+    return float(wall_per_system_step) * n_ranks
 
 
 def cost(owned_nonzeros: float, steps_per_system_step: int) -> float:
     return float(owned_nonzeros) * steps_per_system_step
 
 
-def assign(size: int, costs, n_owned, requested) -> Assignment:
+def assign(size: int, costs, n_owned, requested, basis: str = "estimated") -> Assignment:
     """Ranks of every partition for a world of ``size``.
 
-    costs: estimated cost per partition; n_owned: owned nodes per partition
+    costs: cost per partition (``basis``: estimated, by :func:`cost`, or
+    measured, by :func:`measured_cost`); n_owned: owned nodes per partition
     (cap on its ranks); requested: ``partitions[].ranks`` (None = by cost)."""
     P = len(costs)
     costs = [float(c) for c in costs]
@@ -77,23 +106,24 @@ def assign(size: int, costs, n_owned, requested) -> Assignment:
         counts.update(zip(free, _share(size - used, [costs[p] for p in free],
                                        [n_owned[p] for p in free])))
         how = (f"{size} rank(s); partitions[].ranks given for "
-               f"{', '.join(str(p) for p in given)}, the rest by cost")
-        return Assignment(_contiguous([counts[p] for p in range(P)]), tuple(costs), how)
+               f"{', '.join(str(p) for p in given)}, the rest by {basis} cost")
+        return Assignment(_contiguous([counts[p] for p in range(P)]), tuple(costs), how, basis)
     if size >= P:
         counts = _share(size, costs, n_owned)
         idle = size - sum(counts)
-        how = (f"{size} rank(s) for {P} partition(s), shared by estimated cost"
+        how = (f"{size} rank(s) for {P} partition(s), shared by {basis} cost"
                + (f"; {idle} rank(s) idle (no partition has nodes to spare)" if idle else ""))
-        return Assignment(_contiguous(counts), tuple(costs), how)
+        return Assignment(_contiguous(counts), tuple(costs), how, basis)
     load = np.zeros(size)
     ranks = [None] * P
     for p in sorted(range(P), key=lambda q: (-costs[q], q)):
         r = int(np.argmin(load))
         ranks[p] = (r,)
         load[r] += costs[p]
+    shown = [f"{1e3 * x:.3g} ms" if basis == "measured" else f"{x:.3g}" for x in load]
     how = (f"{size} rank(s) for {P} partitions: each partition on one rank, placed by "
-           f"estimated cost (rank loads {', '.join(f'{x:.3g}' for x in load)})")
-    return Assignment(tuple(ranks), tuple(costs), how)
+           f"{basis} cost (rank loads {', '.join(shown)})")
+    return Assignment(tuple(ranks), tuple(costs), how, basis)
 
 
 def _share(n: int, costs, caps) -> list[int]:

@@ -118,7 +118,8 @@ class Partition:
     beta: float = key("Newmark beta (explicit and implicit integrators)", 0.25, nonnegative=True)
     gamma: float = key("Newmark gamma (explicit and implicit integrators)", 0.5, positive=True)
     ranks: int | None = key("MPI ranks serving this partition (default: the run's ranks shared "
-                            "by estimated cost; see docs/guide/ranks.md)", None, positive=True)
+                            "by cost, estimated or measured as balance says; see "
+                            "docs/guide/ranks.md)", None, positive=True)
 
     SUPPORTED = {("fem", "explicit"), ("fem", "implicit"), ("dem", "verlet")}
 
@@ -337,6 +338,16 @@ class Scene:
     partitions: tuple[Partition, ...] | Literal["auto"] = key(
         "partitions; each node is owned by exactly one.  auto: levels by element step "
         "(docs/guide/levels.md)")
+    balance: Literal["estimated", "measured"] = key(
+        "how the ranks are shared among the partitions (docs/guide/ranks.md): by estimated "
+        "cost (owned nonzeros x steps per system step) or by measured cost (each partition's "
+        "wall per system step x its ranks, timed before the run over balance_steps system "
+        "steps from the initial state; the run then starts from the initial state, so its "
+        "answers are an estimated run's on the same ranks; nothing is timed where the ranks "
+        "cannot change: 1 rank, 1 rank per partition, or partitions[].ranks given for all)",
+        "estimated")
+    balance_steps: int = key("balance measured: system steps timed (after one more to warm up)",
+                             5, positive=True)
     coupling: Coupling = key("how partitions exchange", Coupling())
     loads: tuple[Load, ...] = key("external forces", ())
     initial: Initial = key("initial state (zero where not given)", Initial())
