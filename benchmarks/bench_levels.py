@@ -129,8 +129,12 @@ def main(argv=None):
         row(f"levels + mass scaling to {args.scaling:g} x bound", r)
         curves.append((f"levels + mass scaling {args.scaling:g}x", r))
     if args.hand and "implicit" in scene.read_text():
+        from solver.scene import load as load_scene  # lazy: after the runs' start
+        written = load_scene(scene, list(args.sets))
+        dt, end = written.time.dt, args.end or written.time.end
         for m in [int(x) for x in args.hand.split(",")]:
-            r = run(scene, base + [f"partitions.implicit.ratio={m}"], tmp / f"hand{m}.h5")
+            whole = f"time.end={int(end / (m * dt) + 1e-9) * m * dt!r}"    # whole system steps
+            r = run(scene, base + [whole, f"partitions.implicit.ratio={m}"], tmp / f"hand{m}.h5")
             row(f"hand-written, m = {m}", r)
     tables.write(f"bench_levels_{args.scene}", lines)
     plot(curves, Path(f"results/bench_levels_{args.scene}.png"), args.scene)

@@ -211,7 +211,7 @@ def stiffness(X: np.ndarray, E: float, nu: float, t: float, drilling: float = 1e
     T = np.zeros((n, 18, 18))                 # local = T global: R on every 3-vector
     for b in range(6):
         T[:, 3 * b:3 * b + 3, 3 * b:3 * b + 3] = R
-    return np.einsum("eki,ekl,elj->eij", T, K, T)
+    return np.matmul(np.matmul(T.transpose(0, 2, 1), K), T)   # T^T K T, batched
 
 
 def _local(X, u):

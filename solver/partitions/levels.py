@@ -32,6 +32,7 @@ from solver.model.arrays import dof_masses
 from solver.model.cell_blocks import kept
 from solver.partitions import stability
 from solver.partitions.assembly import triplets
+from solver.petscutil import init
 from solver.scene.sections import Partition
 
 FIXED_POINT_PASSES = 4
@@ -118,19 +119,30 @@ def assign(bounds, h: float, ratios: np.ndarray, safety: float, buffer: int = 2
     return out
 
 
-def level_omega(mdl, bounds, per_block, ratio, mass) -> float:
+def level_omega(mdl, bounds, per_block, ratio, mass, cache=None) -> float:
     """omega_max of M^-1 K over the elements of one ratio (Lanczos on the
-    assembled sparse operator, as the guard computes it; 0: no element)."""
+    assembled sparse operator, as the guard computes it; 0: no element).
+    ``cache``: a dict kept between calls on the same model (each block's COO
+    triplets are computed once)."""
     from scipy.sparse import coo_matrix  # lazy: scipy loads only where it is used
 
-    blocks = []
-    for b, r, (conn, Ke) in zip(bounds, per_block, model_blocks(mdl)):
+    cache = {} if cache is None else cache
+    rows, cols, vals = [], [], []
+    for k, (b, r, (conn, Ke)) in enumerate(zip(bounds, per_block, model_blocks(mdl))):
         keep = r == ratio
-        if keep.any():
-            blocks.append((conn[keep], subset(Ke, keep)))
-    if not blocks:
+        if not keep.any():
+            continue
+        if k not in cache:
+            cache[k] = triplets([(conn, Ke)], mdl.dofmap)
+        a, c, v = cache[k]
+        per = a.size // len(conn)                       # entries per element, element-major
+        mask = np.repeat(keep, per)
+        rows.append(a[mask])
+        cols.append(c[mask])
+        vals.append(v[mask])
+    if not rows:
         return 0.0
-    rows, cols, vals = triplets(blocks, mdl.dofmap)
+    rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
     n = mdl.n_dofs
     fixed = np.asarray(mdl.fixed)
     with np.errstate(divide="ignore"):
@@ -274,9 +286,11 @@ def auto_dt(scene, mdl, bounds, ratios, mass, lines) -> float:
     h = safety * min(float(b.steps.min()) for b in bounds)
     crit = h / safety
 
+    cache = {}
+
     def finest(step):
         per = assign(bounds, step, ratios, safety, scene.time.levels.buffer)
-        omega = level_omega(mdl, bounds, per, 1, mass)
+        omega = level_omega(mdl, bounds, per, 1, mass, cache)
         return 2.0 / omega if omega > 0 else np.inf
     crit = finest(h)
     for _ in range(FIXED_POINT_PASSES):
@@ -314,25 +328,45 @@ def level_blocks(blocks, levels, ratio):
 
 
 def operators(p, blocks, levels) -> dict:
-    """{ratio: -K_r} of a levelled partition ``p`` over its held DOFs, each
-    checked before stepping: omega_max r dt < 2 with the full nodal masses
-    (Lanczos on the assembled operator; collective)."""
+    """{ratio: -K_r} of a levelled partition ``p``: this rank's rows that the
+    level's elements touch (``p.level_rows[r]``, local DOF indices) by all
+    columns.  Each level is checked before stepping on its whole operator:
+    omega_max r dt < 2 with the full nodal masses (Lanczos; collective)."""
+    P = init()
     R = p.spec.ratio
     h = p.dt / R
-    ops = {}
+    ops, p.level_rows = {}, {}
     for r in (r for r in levels.ratios if r <= R):
         K = p.operator(level_blocks(blocks, levels, r), scale=-1.0)
-        K.setName(f"{p.name}_level{r}")
-        ops[r] = K
         fr = stability.from_operator(K, p.mass, p.fixed_dofs, p.held_dofs, f"{p.name} level {r}")
         if fr.omega_max * r * h >= 2.0:
-            step, crit = stability.seconds(r * h, fr.critical_step(2.0))
+            K.destroy()
             for op in ops.values():
                 op.destroy()
+            step, crit = stability.seconds(r * h, fr.critical_step(2.0))
             raise StabilityError(f"partitions: auto: level {r} steps {step} s, beyond its "
                                  f"critical step {crit} s (omega_max {fr.omega_max:.4g} rad/s, "
                                  f"{fr.method}); lower time.dt or time.safety")
-        n = int(K.getInfo()["nz_used"])
-        p.built.append(f"level {r}: operator ({n} nonzeros), step {r * h:.4g} s, critical "
+        # the rows the level touches: nonzero diagonal (K_r is positive semi-definite)
+        lo, hi = K.getOwnershipRange()
+        bs = K.getBlockSize()
+        diag = K.getDiagonal()
+        touched = diag.getArray().reshape(-1, bs).any(axis=1)
+        diag.destroy()
+        rows = (np.flatnonzero(touched)[:, None] * bs + np.arange(bs)).ravel()
+        isrow = P.IS().createGeneral((lo + rows).astype(P.IntType), comm=K.getComm())
+        iscol = P.IS().createStride(hi - lo, lo, 1, comm=K.getComm())
+        isrow.setBlockSize(bs)
+        iscol.setBlockSize(bs)
+        sub = K.createSubMatrix(isrow, iscol)
+        sub.setName(f"{p.name}_level{r}")
+        n = int(sub.getInfo()["nz_used"])
+        total = int(K.getSize()[0])
+        for obj in (K, isrow, iscol):
+            obj.destroy()
+        ops[r] = sub
+        p.level_rows[r] = rows
+        p.built.append(f"level {r}: operator {int(sub.getSize()[0])} of {total} rows "
+                       f"({n} nonzeros), step {r * h:.4g} s, critical "
                        f"{fr.critical_step(2.0):.4g} s ({fr.method})")
     return ops

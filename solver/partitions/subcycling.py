@@ -33,70 +33,85 @@ import numpy as np
 
 def bind(p, levels):
     """``step(t1)`` for partition ``p``: one system step of the levels, with
-    the level operators the partition built (``p.level_ops``: ratio -> -K_r,
-    :func:`solver.partitions.levels.operators`)."""
+    the level operators the partition built (``p.level_ops``: ratio -> -K_r
+    over the rows its elements touch, :func:`solver.partitions.levels.operators`)."""
     R = p.spec.ratio
     h = p.dt / R
     ratios = [r for r in levels.ratios if r <= R]
     ops = [p.level_ops[r] for r in ratios]
-    accs = [p.u.duplicate() for _ in ops]
-    u, v, a, minv = p.u, p.v, p.a, p.minv
-    U = p.U
+    rows = [p.level_rows[r] for r in ratios]
+    outs = [K.createVecLeft() for K in ops]
+    forces = [o.getArray() for o in outs]          # f_r on the level's rows
+    minvs = [p.inverse_mass[rw] for rw in rows]    # M^-1 there (0 on fixed DOFs)
+    u, U, V = p.u, p.U, p.V
     loads = p.loads
-    comm = p.comm.tompi4py() if hasattr(p.comm, "tompi4py") else p.comm
-    # loads on any rank: every rank makes the Vec (creating PETSc objects is collective)
-    loaded = bool(comm.allreduce(int(bool(loads.groups))))
-    if loaded:
-        ext = p.u.duplicate()
-        E = ext.getArray()
-        inverse = p.inverse_mass
-    vecs = accs + ([ext] if loaded else [])
-    half = [0.5 * r * h for r in ratios] + ([0.5 * h] if loaded else [])
-    active = []                                   # per fine step: (levels acting, kick)
-    for j in range(1, R + 1):
-        on = [i for i, r in enumerate(ratios) if j % r == 0]
-        if j < R:
-            active.append((on, [ratios[i] * h for i in on] + ([h] if loaded else []),
-                           [accs[i] for i in on] + ([ext] if loaded else [])))
-        else:
-            active.append((on, half, vecs))
-    mults = [(K.mult, acc, acc.pointwiseMult) for K, acc in zip(ops, accs)]
-    last = np.full(U.shape, np.nan)               # u of the stored accelerations
+    E = np.zeros(U.size)
+    ld = np.unique(np.concatenate([g.idx for g in loads.groups])) if loads.groups else \
+        np.zeros(0, np.int64)
+    ld_minv = p.inverse_mass[ld]
+    # every DOF drifts at the step of the finest level acting on it: its velocity
+    # changes only then (loaded DOFs: every fine step); integer ratios that do
+    # not divide each other drift everything at every fine step
+    lev = np.full(U.size, R, dtype=np.int64)
+    for r, rw in zip(ratios, rows):
+        lev[rw] = np.minimum(lev[rw], r)
+    lev[ld] = 1
+    nested = all(b % a == 0 for a in ratios for b in ratios if b > a)
+    if not nested:
+        lev[:] = 1
+    drifts = [(r, np.flatnonzero(lev == r)) for r in sorted(set(lev.tolist()))]
+    last = np.full(U.shape, np.nan)               # u of the stored forces
     track = loads.track if loads.owned else None
-    v_maxpy, u_axpy = v.maxpy, u.axpy
-
-    def forces(which):
-        for i in which:
-            mult, acc, scale = mults[i]
-            mult(u, acc)
-            scale(acc, minv)
-
-    def external(t):
-        E[:] = 0.0
-        loads.apply(E, t)
-        np.multiply(E, inverse, out=E)
-
+    comm = p.comm.tompi4py() if hasattr(p.comm, "tompi4py") else p.comm
     stale = (lambda: not np.array_equal(U, last)) if comm.size == 1 else \
         (lambda: comm.allreduce(int(not np.array_equal(U, last))) > 0)
+    mults = [K.mult for K in ops]
+    plan = []                                       # per fine step j: (drifts, levels acting)
+    for j in range(1, R + 1):
+        plan.append(([(r * h, idx) for r, idx in drifts if j % r == 0],
+                     [i for i, r in enumerate(ratios) if j % r == 0]))
+
+    def evaluate(which):
+        for i in which:
+            mults[i](u, outs[i])
+
+    def kick(i, w):
+        rw = rows[i]
+        V[rw] += (w * minvs[i]) * forces[i]
+
+    def kick_loads(t, w):
+        loads.apply(E, t)
+        V[ld] += (w * ld_minv) * E[ld]
+        E[ld] = 0.0
 
     def step(t1):
         t0 = t1 - R * h
         if stale():                               # a restart, a new state: the forces afresh
-            forces(range(len(ops)))
-        if loaded:
-            external(t0)
-        v_maxpy(half, vecs)
-        for j, (on, coefs, kicks) in enumerate(active, start=1):
-            u_axpy(h, v)
-            forces(on)
-            if loaded:
-                external(t0 + j * h)
+            evaluate(range(len(ops)))
+        for i, r in enumerate(ratios):
+            kick(i, 0.5 * r * h)
+        if loads.groups:
+            kick_loads(t0, 0.5 * h)
+        for j, (moves, on) in enumerate(plan, start=1):
+            for dt_l, idx in moves:
+                U[idx] += dt_l * V[idx]
+            evaluate(on)
+            end = j == R
+            for i in on:
+                kick(i, (0.5 if end else 1.0) * ratios[i] * h)
+            if loads.groups:
+                kick_loads(t0 + j * h, (0.5 if end else 1.0) * h)
                 if track is not None:
                     track(U)
-            v_maxpy(coefs, kicks)
-        a.set(0.0)
-        a.maxpy([1.0] * len(vecs), vecs)
+        A = p.A
+        A[:] = 0.0
+        for i, rw in enumerate(rows):
+            A[rw] += minvs[i] * forces[i]
+        if loads.groups:
+            loads.apply(E, t1)
+            A[ld] += ld_minv * E[ld]
+            E[ld] = 0.0
         last[:] = U
 
-    p.level_vecs = accs + ([ext] if loaded else [])
+    p.level_vecs = outs
     return step
