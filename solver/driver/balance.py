@@ -39,6 +39,8 @@ def cannot_change(scene, scheme, size: int) -> str | None:
         return f"coupling.scheme {scene.coupling.scheme} places its partitions on ranks itself"
     if size == 1:
         return "one rank serves every partition"
+    if P == 1:
+        return "one partition: it has every rank"
     if size == P:
         return f"{size} ranks for {P} partitions: one rank each"
     if all(p.ranks is not None for p in scene.partitions):

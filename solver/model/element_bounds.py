@@ -54,6 +54,7 @@ class BlockBounds:
     steps: np.ndarray         # [e] 2 / sqrt(lambda_e) [s] (inf: no stiffness on free DOFs)
     own: np.ndarray           # [e, k, d] own lumped mass per element node and DOF
     kind: str                 # element kind, for the log
+    added: np.ndarray | None = None   # [e] translational mass mass scaling added [kg]
 
 
 def _dofs(mdl, conn, d):
@@ -192,4 +193,6 @@ def scale(bounds: list[BlockBounds], n_nodes: int, target: float, model_mass: fl
                                    minlength=n_nodes)
         b.own[low] += extra
         b.steps[low] = target
+        b.added = np.zeros(b.steps.size)
+        b.added[low] = extra[:, :, 0].sum(axis=1)
     return Scaling(target, added_m, added_i, count, total, model_mass)

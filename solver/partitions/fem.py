@@ -28,9 +28,8 @@ from solver.petscutil import init, vec_on
 
 class FemPartition(Partition):
     method = "fem"
-    level_ops: dict = {}          # partitions: auto: ratio -> -K_r (levels.operators)
-    level_rows: dict = {}         # ratio -> the local rows it acts on
-    level_vecs: list = []         # their forces (subcycling.bind)
+    level_ops: dict = {}          # partitions: auto: ratio -> r dt M^-1 (-K_r) (levels.operators)
+    level_vecs: list = []         # their kicks (subcycling.bind)
 
     def build_force(self, model, layout):
         blocks = model.stiffness_blocks(self.whole_held())

@@ -32,7 +32,6 @@ from solver.model.arrays import dof_masses
 from solver.model.cell_blocks import kept
 from solver.partitions import stability
 from solver.partitions.assembly import triplets
-from solver.petscutil import init
 from solver.scene.sections import Partition
 
 FIXED_POINT_PASSES = 4
@@ -75,6 +74,17 @@ class Levels:
             starts = np.flatnonzero(first)
             self._keys[width] = (view[starts], np.minimum.reduceat(rs, starts))
 
+    def __repr__(self) -> str:
+        """Deterministic (the checkpoint's scene fingerprint reads it): the fine
+        step, the ratios and a digest of every element's ratio."""
+        import hashlib  # lazy: only fingerprints ask
+        digest = hashlib.sha1()
+        for width in sorted(self._keys):
+            keys, rs = self._keys[width]
+            digest.update(keys.tobytes())
+            digest.update(np.ascontiguousarray(rs, dtype=np.int64).tobytes())
+        return f"Levels(h={self.h!r}, ratios={self.ratios}, elements={digest.hexdigest()[:16]})"
+
     def lookup(self, conn) -> np.ndarray:
         conn = np.asarray(conn)
         keys, rs = self._keys[conn.shape[1]]
@@ -110,13 +120,7 @@ def assign(bounds, h: float, ratios: np.ndarray, safety: float, buffer: int = 2
     for b in bounds:
         at = np.searchsorted(ratios * h, safety * b.steps, side="right") - 1
         out.append(ratios[np.maximum(at, 0)])
-    for _ in range(buffer):
-        n = max(int(b.conn.max()) for b in bounds) + 1
-        node = np.full(n, np.iinfo(np.int64).max)
-        for b, r in zip(bounds, out):
-            np.minimum.at(node, b.conn.ravel(), np.repeat(r, b.conn.shape[1]))
-        out = [node[b.conn].min(axis=1) for b in bounds]
-    return out
+    return buffered(bounds, out, buffer)
 
 
 def level_omega(mdl, bounds, per_block, ratio, mass, cache=None) -> float:
@@ -159,6 +163,31 @@ def level_omega(mdl, bounds, per_block, ratio, mass, cache=None) -> float:
     return float(np.sqrt(min(max(lam, 0.0), ger)))
 
 
+def nest(per_block, ratios, buffer, bounds):
+    """Every ratio present divides the largest present (integer ratios need
+    not): each lowered to the largest allowed divisor of the largest, the
+    buffer again, until nothing changes (lowering a ratio keeps its level
+    stable).  Powers of two come back as they are."""
+    while True:
+        top = max(int(rs.max()) for rs in per_block)
+        divisors = ratios[(top % ratios == 0) & (ratios <= top)]
+        if all(np.all(top % rs == 0) for rs in per_block):
+            return per_block
+        lowered = [divisors[np.searchsorted(divisors, rs, side="right") - 1] for rs in per_block]
+        per_block = buffered(bounds, lowered, buffer)
+
+
+def buffered(bounds, per_block, layers):
+    """``layers`` times: every element takes the smallest ratio at its nodes."""
+    for _ in range(layers):
+        n = max(int(b.conn.max()) for b in bounds) + 1
+        node = np.full(n, np.iinfo(np.int64).max)
+        for b, r in zip(bounds, per_block):
+            np.minimum.at(node, b.conn.ravel(), np.repeat(r, b.conn.shape[1]))
+        per_block = [node[b.conn].min(axis=1) for b in bounds]
+    return per_block
+
+
 def model_blocks(mdl):
     return [(np.asarray(c), K) for c, K in mdl.stiffness_blocks(np.arange(mdl.n_nodes)) if len(c)]
 
@@ -174,8 +203,9 @@ def table(bounds, per_block, h, dof_of) -> tuple[list[str], float]:
     ratios = sorted({int(r) for rs in per_block for r in np.unique(rs)})
     R = max(ratios)
     rows, total_uniform, total = [], 0.0, 0.0
+    scaled = any(b.added is not None for b in bounds)
     for r in ratios:
-        n_el, entries, nodes, crit = 0, 0.0, [], np.inf
+        n_el, entries, nodes, crit, added = 0, 0.0, [], np.inf, 0.0
         for b, rs in zip(bounds, per_block):
             keep = rs == r
             if not keep.any():
@@ -184,16 +214,19 @@ def table(bounds, per_block, h, dof_of) -> tuple[list[str], float]:
             entries += float(keep.sum()) * (b.own.shape[1] * b.own.shape[2]) ** 2
             nodes.append(np.unique(b.conn[keep]))
             crit = min(crit, float(b.steps[keep].min()))
+            added += float(b.added[keep].sum()) if b.added is not None else 0.0
         nodes = np.unique(np.concatenate(nodes))
         cost = entries * R / r
         total += cost
         total_uniform += entries * R
-        rows.append((r, n_el, nodes.size, int(dof_of(nodes)), crit, cost))
+        rows.append((r, n_el, nodes.size, int(dof_of(nodes)), crit, cost, added))
     lines = [f"levels: {'ratio':>5} {'elements':>9} {'nodes':>8} {'DOFs':>9} "
-             f"{'bound step [s]':>14} {'step [s]':>10} {'cost':>6}"]
-    for r, n_el, n_nodes, n_dofs, crit, cost in rows:
+             f"{'bound step [s]':>14} {'step [s]':>10} {'cost':>6}"
+             + (f" {'added mass [kg]':>15}" if scaled else "")]
+    for r, n_el, n_nodes, n_dofs, crit, cost, added in rows:
         lines.append(f"levels: {r:>5} {n_el:>9} {n_nodes:>8} {n_dofs:>9} {crit:>14.4g} "
-                     f"{r * h:>10.4g} {100 * cost / total:>5.1f}%")
+                     f"{r * h:>10.4g} {100 * cost / total:>5.1f}%"
+                     + (f" {added:>15.4g}" if scaled else ""))
     speedup = total_uniform / total if total else 1.0
     lines.append(f"levels: predicted speed-up {speedup:.3g} x against one uniform step of "
                  f"{h:.4g} s (element matrix work per system step; vector work not counted)")
@@ -221,7 +254,8 @@ def resolve(scene, mdl):
                              f"from its own matrices; this model has {e} (not covered): write "
                              "the partitions and time.dt by hand") from None
         if not bounds:
-            raise SceneError("partitions: auto: the model has no element to level")
+            raise SceneError(f"{'partitions' if levelled else 'time.mass_scaling'}: the model "
+                             "has no element to bound")
     scaling = None
     if t.mass_scaling is not None:
         scaling, mdl = scale_mass(scene, mdl, bounds)
@@ -231,7 +265,8 @@ def resolve(scene, mdl):
         ratios = allowed(t.levels.max_ratio, t.levels.ratios)
         if t.dt == "auto":
             h = auto_dt(scene, mdl, bounds, ratios, mass, lines)
-            made = assign(bounds, h, ratios, t.safety, t.levels.buffer)
+            made = nest(assign(bounds, h, ratios, t.safety, t.levels.buffer), ratios,
+                        t.levels.buffer, bounds)
             top = max(int(rs.max()) for rs in made)
             n = max(1, math.ceil(t.end / (top * h) * (1 - 1e-12)))
             h = t.end / (n * top)
@@ -241,7 +276,8 @@ def resolve(scene, mdl):
             h = t.dt
             steps = round(t.end / h)               # a whole number (Scene.validate)
             ratios = ratios[steps % ratios == 0]   # the system step must divide time.end
-        per_block = assign(bounds, h, ratios, t.safety, t.levels.buffer)
+        per_block = nest(assign(bounds, h, ratios, t.safety, t.levels.buffer), ratios,
+                         t.levels.buffer, bounds)
         present = sorted({int(r) for rs in per_block for r in np.unique(rs)})
         rows, _ = table(bounds, per_block, h, mdl.dofmap.count)
         lines += rows
@@ -294,16 +330,16 @@ def auto_dt(scene, mdl, bounds, ratios, mass, lines) -> float:
         return 2.0 / omega if omega > 0 else np.inf
     crit = finest(h)
     for _ in range(FIXED_POINT_PASSES):
-        candidate = safety * crit
+        candidate = min(safety, 1 - 1e-6) * crit  # never the critical step itself
         if not np.isfinite(candidate) or candidate <= h * (1 + 1e-9):
             break
         c = finest(candidate)
-        if candidate > safety * c:               # too far: bisect between h and candidate
+        if candidate > min(safety, 1 - 1e-6) * c:    # too far: bisect between h and it
             lo, hi = h, candidate
             for _ in range(BISECTIONS):
                 mid = 0.5 * (lo + hi)
                 c_mid = finest(mid)
-                if mid <= safety * c_mid:
+                if mid <= min(safety, 1 - 1e-6) * c_mid:
                     lo, crit = mid, c_mid
                 else:
                     hi = mid
@@ -328,45 +364,31 @@ def level_blocks(blocks, levels, ratio):
 
 
 def operators(p, blocks, levels) -> dict:
-    """{ratio: -K_r} of a levelled partition ``p``: this rank's rows that the
-    level's elements touch (``p.level_rows[r]``, local DOF indices) by all
-    columns.  Each level is checked before stepping on its whole operator:
-    omega_max r dt < 2 with the full nodal masses (Lanczos; collective)."""
-    P = init()
+    """{ratio: r dt M^-1 (-K_r)} of a levelled partition ``p`` over its held
+    DOFs (rows no element of the level touches stay empty): MatMult gives the
+    level's whole velocity kick.  Each level is checked before stepping on
+    its operator: omega_max r dt < 2 with the full nodal masses (Lanczos;
+    collective)."""
     R = p.spec.ratio
     h = p.dt / R
-    ops, p.level_rows = {}, {}
+    ops = {}
     for r in (r for r in levels.ratios if r <= R):
         K = p.operator(level_blocks(blocks, levels, r), scale=-1.0)
+        K.setName(f"{p.name}_level{r}")
+        ops[r] = K
         fr = stability.from_operator(K, p.mass, p.fixed_dofs, p.held_dofs, f"{p.name} level {r}")
         if fr.omega_max * r * h >= 2.0:
-            K.destroy()
             for op in ops.values():
                 op.destroy()
             step, crit = stability.seconds(r * h, fr.critical_step(2.0))
             raise StabilityError(f"partitions: auto: level {r} steps {step} s, beyond its "
                                  f"critical step {crit} s (omega_max {fr.omega_max:.4g} rad/s, "
                                  f"{fr.method}); lower time.dt or time.safety")
-        # the rows the level touches: nonzero diagonal (K_r is positive semi-definite)
-        lo, hi = K.getOwnershipRange()
-        bs = K.getBlockSize()
-        diag = K.getDiagonal()
-        touched = diag.getArray().reshape(-1, bs).any(axis=1)
-        diag.destroy()
-        rows = (np.flatnonzero(touched)[:, None] * bs + np.arange(bs)).ravel()
-        isrow = P.IS().createGeneral((lo + rows).astype(P.IntType), comm=K.getComm())
-        iscol = P.IS().createStride(hi - lo, lo, 1, comm=K.getComm())
-        isrow.setBlockSize(bs)
-        iscol.setBlockSize(bs)
-        sub = K.createSubMatrix(isrow, iscol)
-        sub.setName(f"{p.name}_level{r}")
-        n = int(sub.getInfo()["nz_used"])
-        total = int(K.getSize()[0])
-        for obj in (K, isrow, iscol):
-            obj.destroy()
-        ops[r] = sub
-        p.level_rows[r] = rows
-        p.built.append(f"level {r}: operator {int(sub.getSize()[0])} of {total} rows "
-                       f"({n} nonzeros), step {r * h:.4g} s, critical "
+        kick = K.createVecLeft()
+        kick.getArray()[:] = r * h * p.inverse_mass         # 0 on fixed DOFs
+        K.diagonalScale(L=kick)
+        kick.destroy()
+        n = int(K.getInfo()["nz_used"])
+        p.built.append(f"level {r}: operator ({n} nonzeros), step {r * h:.4g} s, critical "
                        f"{fr.critical_step(2.0):.4g} s ({fr.method})")
     return ops

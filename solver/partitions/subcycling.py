@@ -22,8 +22,10 @@ highest frequency of M^-1 K_r (full nodal masses); that is checked here, on
 the assembled level operators, before stepping.  One level (R = 1) is
 velocity Verlet, the same map as central difference.
 
-Cost per system step: for each level R / r MatMults with its own operator
-(its elements only), R drifts and R kicks over the partition's DOFs.
+Cost per system step: for each level R / r MatMults with its operator,
+scaled by r h M^-1 so that the product is the level's velocity kick (its
+empty rows cost next to nothing: PETSc skips them), R drifts u += h v and
+R kicks v += sum of the acting levels' kicks (VecMAXPY), all contiguous.
 """
 from __future__ import annotations
 
@@ -33,51 +35,39 @@ import numpy as np
 
 def bind(p, levels):
     """``step(t1)`` for partition ``p``: one system step of the levels, with
-    the level operators the partition built (``p.level_ops``: ratio -> -K_r
-    over the rows its elements touch, :func:`solver.partitions.levels.operators`)."""
+    the level operators the partition built (``p.level_ops``: ratio ->
+    r dt M^-1 (-K_r), :func:`solver.partitions.levels.operators`)."""
     R = p.spec.ratio
     h = p.dt / R
     ratios = [r for r in levels.ratios if r <= R]
+    if any(R % r for r in ratios):
+        raise ValueError(f"levels {ratios} do not all divide the system ratio {R}")
     ops = [p.level_ops[r] for r in ratios]
-    rows = [p.level_rows[r] for r in ratios]
-    outs = [K.createVecLeft() for K in ops]
-    forces = [o.getArray() for o in outs]          # f_r on the level's rows
-    minvs = [p.inverse_mass[rw] for rw in rows]    # M^-1 there (0 on fixed DOFs)
-    u, U, V = p.u, p.U, p.V
+    kicks = [K.createVecLeft() for K in ops]       # r dt M^-1 f_r: a level's whole kick
+    u, v, a, U, V = p.u, p.v, p.a, p.U, p.V
     loads = p.loads
     E = np.zeros(U.size)
     ld = np.unique(np.concatenate([g.idx for g in loads.groups])) if loads.groups else \
         np.zeros(0, np.int64)
     ld_minv = p.inverse_mass[ld]
-    # every DOF drifts at the step of the finest level acting on it: its velocity
-    # changes only then (loaded DOFs: every fine step); integer ratios that do
-    # not divide each other drift everything at every fine step
-    lev = np.full(U.size, R, dtype=np.int64)
-    for r, rw in zip(ratios, rows):
-        lev[rw] = np.minimum(lev[rw], r)
-    lev[ld] = 1
-    nested = all(b % a == 0 for a in ratios for b in ratios if b > a)
-    if not nested:
-        lev[:] = 1
-    drifts = [(r, np.flatnonzero(lev == r)) for r in sorted(set(lev.tolist()))]
-    last = np.full(U.shape, np.nan)               # u of the stored forces
+    last = np.full(U.shape, np.nan)                # u of the stored kicks
     track = loads.track if loads.owned else None
     comm = p.comm.tompi4py() if hasattr(p.comm, "tompi4py") else p.comm
     stale = (lambda: not np.array_equal(U, last)) if comm.size == 1 else \
         (lambda: comm.allreduce(int(not np.array_equal(U, last))) > 0)
     mults = [K.mult for K in ops]
-    plan = []                                       # per fine step j: (drifts, levels acting)
-    for j in range(1, R + 1):
-        plan.append(([(r * h, idx) for r, idx in drifts if j % r == 0],
-                     [i for i, r in enumerate(ratios) if j % r == 0]))
+    halves = [0.5] * len(kicks)
+    # inside the step a level kicks v directly (MatMultAdd: only the rows its
+    # elements touch); the last evaluation is kept: the closing and the next
+    # step's opening half kicks, and the acceleration
+    adds = [K.multAdd for K in ops]
+    plan = [[i for i, r in enumerate(ratios) if j % r == 0] for j in range(1, R)]
+    to_acc = [1.0 / (r * h) for r in ratios]
+    v_maxpy, u_axpy = v.maxpy, u.axpy
 
     def evaluate(which):
         for i in which:
-            mults[i](u, outs[i])
-
-    def kick(i, w):
-        rw = rows[i]
-        V[rw] += (w * minvs[i]) * forces[i]
+            mults[i](u, kicks[i])
 
     def kick_loads(t, w):
         loads.apply(E, t)
@@ -86,32 +76,33 @@ def bind(p, levels):
 
     def step(t1):
         t0 = t1 - R * h
-        if stale():                               # a restart, a new state: the forces afresh
+        if stale():                               # a restart, a new state: the kicks afresh
             evaluate(range(len(ops)))
-        for i, r in enumerate(ratios):
-            kick(i, 0.5 * r * h)
+        v_maxpy(halves, kicks)
         if loads.groups:
             kick_loads(t0, 0.5 * h)
-        for j, (moves, on) in enumerate(plan, start=1):
-            for dt_l, idx in moves:
-                U[idx] += dt_l * V[idx]
-            evaluate(on)
-            end = j == R
+        for j, on in enumerate(plan, start=1):
+            u_axpy(h, v)
             for i in on:
-                kick(i, (0.5 if end else 1.0) * ratios[i] * h)
+                adds[i](u, v, v)                   # v += r h M^-1 f_r(u)
             if loads.groups:
-                kick_loads(t0 + j * h, (0.5 if end else 1.0) * h)
+                kick_loads(t0 + j * h, h)
                 if track is not None:
                     track(U)
-        A = p.A
-        A[:] = 0.0
-        for i, rw in enumerate(rows):
-            A[rw] += minvs[i] * forces[i]
+        u_axpy(h, v)                               # j = R: every level acts
+        evaluate(range(len(ops)))
+        v_maxpy(halves, kicks)
+        if loads.groups:
+            kick_loads(t1, 0.5 * h)
+            if track is not None:
+                track(U)
+        a.set(0.0)
+        a.maxpy(to_acc, kicks)                    # a = sum_r M^-1 f_r at t1
         if loads.groups:
             loads.apply(E, t1)
-            A[ld] += ld_minv * E[ld]
+            p.A[ld] += ld_minv * E[ld]
             E[ld] = 0.0
         last[:] = U
 
-    p.level_vecs = outs
+    p.level_vecs = kicks
     return step

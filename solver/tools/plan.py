@@ -89,6 +89,8 @@ def candidates(scene, mdl, factors):
     """[(name, dt, ratios, nonzeros per level, added mass fraction, note)]."""
     t = scene.time
     out = []
+    if mdl.kind != "continuum":
+        factors = []                  # mass scaling adds element masses: continua only
     for f in [None, *factors]:
         m = mdl
         bounds = element_bounds.model_bounds(scene, m)
@@ -101,6 +103,9 @@ def candidates(scene, mdl, factors):
         mass = dof_masses(m, np.arange(m.n_nodes))
         one = [np.ones(b.steps.size, int) for b in bounds]
         omega = lv.level_omega(m, bounds, one, 1, mass)
+        if omega <= 0:
+            raise SceneError("plan: the model has no stiffness on its free DOFs: nothing to "
+                             "step")
         h_u = t.safety * 2.0 / omega
         tag = "" if f is None else f" + mass scaling to {f:g} x the smallest bound"
         out.append((f"uniform explicit{tag}", h_u, [1], level_nonzeros(m, bounds, one, [1]), added))

@@ -241,6 +241,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     try:
         scene = load(args.scene, args.sets)
+        if scene.time.dt == "auto" or scene.partitions == "auto":
+            raise SceneError(f"{args.scene}: sweep varies time.dt and partition ratios; this "
+                             "scene has time.dt: auto or partitions: auto (./run.sh plan "
+                             "compares its candidates)")
         ranks = number_list("-n", args.ranks, int)
         by_dt = args.dts is not None
         points = number_list("--dts", args.dts, float) if by_dt else \
