@@ -99,8 +99,8 @@ def main(argv=None):
 
     def row(label, r):
         err = np.abs(r["u"] - np.interp(r["t"], ref["t"], ref["u"])).max() / scale
-        lv = next(iter(r["levels"].values()))
-        lv = ", ".join(map(str, lv)) if lv is not None else "1"
+        lv = [v for v in r["levels"].values() if v is not None]
+        lv = ", ".join(map(str, lv[0])) if lv else ("1" if len(r["levels"]) == 1 else "—")
         speed = ref["stepping"] / r["stepping"]
         pred = r["predicted"]
         lines.append(f"| {label} | {lv} | {min(r['dt'].values()):.4g} | {r['added']:.3g} % | "
