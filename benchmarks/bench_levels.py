@@ -1,6 +1,6 @@
 """Automatic multi-time-stepping against one uniform step (docs/guide/levels.md).
 
-    python benchmarks/bench_levels.py [--scene u_tube_graded] [--end 0.02]
+    python benchmarks/bench_levels.py [--scene u_tube_graded] [--end 0.02 (U-tube default)]
         [--hand 3,6,12] [--scaling 1.5] [--set key=value ...]
 
 Runs the scene as separate processes, in one go so the runs share the
@@ -83,6 +83,8 @@ def main(argv=None):
                     help="mass-scaling target as a multiple of the smallest element bound")
     ap.add_argument("--set", action="append", default=[], dest="sets")
     args = ap.parse_args(argv)
+    if args.end is None and args.scene == "u_tube_graded":
+        args.end = 0.02                  # the impact and one rebound: about 9 minutes in all
     scene = ROOT / "configs" / f"{args.scene}.yaml"
     tmp = Path(tempfile.mkdtemp())
     base = list(args.sets) + ([f"time.end={args.end!r}"] if args.end else [])
