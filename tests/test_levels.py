@@ -300,3 +300,42 @@ def test_levelled_run_restarts_bitwise(tmp_path):
         for k in a["probes"]:
             assert np.array_equal(a["probes"][k]["displacement"][()],
                                   b["probes"][k]["displacement"][()]), k
+
+
+def test_plan_lists_the_candidates_with_their_steps(tmp_path):
+    """./run.sh plan on the graded chain: the uniform step is 0.9 x the exact
+    critical step of the whole chain (Lanczos: within 0.3 %), the levels row
+    has ratios 1-8 at the scene's time.dt; networks get no mass scaling."""
+    import re
+    from conftest import run_cli
+    raw = chain(dt=0.5, end=48.0)
+    proc = run_cli(["plan", write_scene(tmp_path / "c.yaml", raw)])
+    assert proc.returncode == 0, proc.stderr
+    rows = {line.split("|")[1].strip(): line.split("|")[2:] for line in proc.stdout.splitlines()
+            if line.startswith("| ") and not line.startswith("| candidate")}
+    assert set(rows) == {"uniform explicit", "automatic levels"}
+    n = PER * len(GROUPS)
+    K = 2 * np.eye(n) - np.eye(n, k=1) - np.eye(n, k=-1)
+    m = np.repeat(GROUPS, PER)
+    omega = np.sqrt(np.linalg.eigvalsh(K / np.sqrt(np.outer(m, m)))[-1])
+    dt = float(rows["uniform explicit"][0])
+    assert 0.9 * 2 / omega * 0.997 <= dt <= 0.9 * 2 / omega * 1.0001
+    assert rows["automatic levels"][1].strip() == "1, 2, 4, 8"
+    assert float(rows["automatic levels"][0]) == 0.5        # the scene's own time.dt
+    assert float(rows["automatic levels"][-2]) > 0
+    assert re.search(r"ns per MatMult nonzero", proc.stdout)
+
+
+def test_an_unstable_level_is_refused_naming_its_critical_step(tmp_path):
+    """A time.dt beyond the finest level's critical step: one line naming the
+    level and its critical step, before stepping; guard.stable_step false runs
+    anyway with the warning in the log."""
+    path = write_scene(tmp_path / "p.yaml", plate(end=2.0e-5, dt=2.0e-7))
+    line = refused(path, [], tmp_path)
+    assert "level 1 steps 2e-07 s, beyond its critical step" in line, line
+    from conftest import run_cli
+    out = tmp_path / "anyway.h5"
+    proc = run_cli([path, "--set", f"output.file={out}", "--set", "guard.stable_step=false",
+                    "--set", "time.end=4.0e-7"])
+    assert "guard.stable_step is false: running anyway" in proc.stdout + proc.stderr
+    assert out.exists()

@@ -54,8 +54,9 @@ class Levels:
     any share of the model: the table is keyed by the sorted node ids of
     every element)."""
 
-    def __init__(self, h, ratios, bounds, per_block, scaling, lines):
+    def __init__(self, h, ratios, bounds, per_block, scaling, lines, enforce=True):
         self.h = h
+        self.enforce = enforce          # guard.stable_step: an unstable level is refused
         self.ratios = tuple(int(r) for r in ratios)      # the ratios present, ascending
         self.scaling = scaling
         self.lines = lines
@@ -281,7 +282,7 @@ def resolve(scene, mdl):
         present = sorted({int(r) for rs in per_block for r in np.unique(rs)})
         rows, _ = table(bounds, per_block, h, mdl.dofmap.count)
         lines += rows
-        lev = Levels(h, present, bounds, per_block, scaling, rows)
+        lev = Levels(h, present, bounds, per_block, scaling, rows, scene.guard.stable_step)
         R = present[-1]
         spec = dataclasses.replace(scene.partitions[0], integrator="levels" if len(present) > 1
                                    else "explicit", ratio=R, beta=0.0, gamma=0.5)
@@ -378,12 +379,15 @@ def operators(p, blocks, levels) -> dict:
         ops[r] = K
         fr = stability.from_operator(K, p.mass, p.fixed_dofs, p.held_dofs, f"{p.name} level {r}")
         if fr.omega_max * r * h >= 2.0:
-            for op in ops.values():
-                op.destroy()
             step, crit = stability.seconds(r * h, fr.critical_step(2.0))
-            raise StabilityError(f"partitions: auto: level {r} steps {step} s, beyond its "
-                                 f"critical step {crit} s (omega_max {fr.omega_max:.4g} rad/s, "
-                                 f"{fr.method}); lower time.dt or time.safety")
+            problem = (f"partitions: auto: level {r} steps {step} s, beyond its critical step "
+                       f"{crit} s (omega_max {fr.omega_max:.4g} rad/s, {fr.method}); lower "
+                       "time.dt or time.safety")
+            if levels.enforce:
+                for op in ops.values():
+                    op.destroy()
+                raise StabilityError(problem)
+            p.built.append(f"warning: {problem}; guard.stable_step is false: running anyway")
         kick = K.createVecLeft()
         kick.getArray()[:] = r * h * p.inverse_mass         # 0 on fixed DOFs
         K.diagonalScale(L=kick)

@@ -110,7 +110,8 @@ def candidates(scene, mdl, factors):
         tag = "" if f is None else f" + mass scaling to {f:g} x the smallest bound"
         out.append((f"uniform explicit{tag}", h_u, [1], level_nonzeros(m, bounds, one, [1]), added))
         ratios = lv.allowed(t.levels.max_ratio, t.levels.ratios)
-        h = lv.auto_dt(scene, m, bounds, ratios, mass, [])
+        # the scene's own step when it gives one (mass scaling: the larger auto step)
+        h = lv.auto_dt(scene, m, bounds, ratios, mass, []) if t.dt == "auto" or f else t.dt
         per = lv.assign(bounds, h, ratios, t.safety, t.levels.buffer)
         present = sorted({int(r) for rs in per for r in np.unique(rs)})
         out.append((f"automatic levels{tag}", h, present,
@@ -121,7 +122,7 @@ def candidates(scene, mdl, factors):
 @dataclasses.dataclass(frozen=True)
 class _Target:
     dt: float
-    max_added: float = 1.0
+    max_added: float = float("inf")      # plan shows every target with its added mass
 
 
 def predict(dt, ratios, nnz, c_nz, c_vec, n_dofs):
