@@ -66,9 +66,10 @@ def _largest(K, m, free):
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(free & (m > 0), 1.0 / np.sqrt(np.where(m > 0, m, 1.0)), 0.0)
     A = s[:, :, None] * K * s[:, None, :]
-    if A.shape[1] <= 2:
-        return np.abs(A).sum(axis=2).max(axis=1) if A.shape[1] == 1 else \
-            _two_by_two(A)
+    if A.shape[1] == 1:                        # a spring to the ground
+        return A[:, 0, 0]
+    if A.shape[1] == 2:                        # a spring between two masses
+        return _two_by_two(A)
     return np.linalg.eigvalsh(A)[:, -1]
 
 

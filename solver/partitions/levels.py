@@ -54,12 +54,11 @@ class Levels:
     any share of the model: the table is keyed by the sorted node ids of
     every element)."""
 
-    def __init__(self, h, ratios, bounds, per_block, scaling, lines, enforce=True):
+    def __init__(self, h, ratios, bounds, per_block, scaling, enforce=True):
         self.h = h
         self.enforce = enforce          # guard.stable_step: an unstable level is refused
         self.ratios = tuple(int(r) for r in ratios)      # the ratios present, ascending
         self.scaling = scaling
-        self.lines = lines
         self._keys = {}
         for b, r in zip(bounds, per_block):
             width = b.conn.shape[1]
@@ -129,7 +128,7 @@ def level_omega(mdl, bounds, per_block, ratio, mass, cache=None) -> float:
     assembled sparse operator, as the guard computes it; 0: no element).
     ``cache``: a dict kept between calls on the same model (each block's COO
     triplets are computed once)."""
-    from scipy.sparse import coo_matrix  # lazy: scipy loads only where it is used
+    from scipy.sparse import coo_matrix, diags  # lazy: scipy loads only where it is used
 
     cache = {} if cache is None else cache
     rows, cols, vals = [], [], []
@@ -149,19 +148,13 @@ def level_omega(mdl, bounds, per_block, ratio, mass, cache=None) -> float:
         return 0.0
     rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
     n = mdl.n_dofs
-    fixed = np.asarray(mdl.fixed)
-    with np.errstate(divide="ignore"):
-        s = np.where(fixed | ~(mass > 0), 0.0, 1.0 / np.sqrt(np.where(mass > 0, mass, 1.0)))
-    A = coo_matrix((vals * s[rows] * s[cols], (rows, cols)), shape=(n, n)).tocsr()
+    A = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+    s = stability.scales(mass, np.asarray(mdl.fixed), A.diagonal(), f"level {ratio}")
+    A = diags(s) @ A @ diags(s)
     ger = float(abs(A).sum(axis=1).max())
-    if ger == 0.0:
-        return 0.0
-    free = int(np.count_nonzero(s))
-    k = lanczos.steps(free, lanczos.EPS, lanczos.FAILURE)
-    B = A / ger
-    theta, done = lanczos.largest(B.dot, lanczos.start(np.arange(n)) * (s > 0), min(k, free))
-    lam = ger * (theta if done < k else theta / (1 - lanczos.EPS))
-    return float(np.sqrt(min(max(lam, 0.0), ger)))
+    fr = stability.estimate(lambda g: (A / g).dot, lanczos.start(np.arange(n)) * (s > 0),
+                            int(np.count_nonzero(s)), ger, None, f"level {ratio}")
+    return fr.omega_max
 
 
 def nest(per_block, ratios, buffer, bounds):
@@ -193,13 +186,9 @@ def model_blocks(mdl):
     return [(np.asarray(c), K) for c, K in mdl.stiffness_blocks(np.arange(mdl.n_nodes)) if len(c)]
 
 
-def subset(Ke, keep):
-    return Ke.subset(keep) if hasattr(Ke, "subset") else Ke[keep]
-
-
-def table(bounds, per_block, h, dof_of) -> tuple[list[str], float]:
-    """The level table's lines and the predicted speed-up against one uniform
-    step: the cost of a level is its element matrix entries times its steps
+def table(bounds, per_block, h, dof_of) -> list[str]:
+    """The level table's lines, the last the predicted speed-up against one
+    uniform step: the cost of a level is its element matrix entries times its steps
     per system step (the stepping's MatMult work)."""
     ratios = sorted({int(r) for rs in per_block for r in np.unique(rs)})
     R = max(ratios)
@@ -231,7 +220,7 @@ def table(bounds, per_block, h, dof_of) -> tuple[list[str], float]:
     speedup = total_uniform / total if total else 1.0
     lines.append(f"levels: predicted speed-up {speedup:.3g} x against one uniform step of "
                  f"{h:.4g} s (element matrix work per system step; vector work not counted)")
-    return lines, speedup
+    return lines
 
 
 def needs(scene) -> bool:
@@ -280,9 +269,8 @@ def resolve(scene, mdl):
         per_block = nest(assign(bounds, h, ratios, t.safety, t.levels.buffer), ratios,
                          t.levels.buffer, bounds)
         present = sorted({int(r) for rs in per_block for r in np.unique(rs)})
-        rows, _ = table(bounds, per_block, h, mdl.dofmap.count)
-        lines += rows
-        lev = Levels(h, present, bounds, per_block, scaling, rows, scene.guard.stable_step)
+        lines += table(bounds, per_block, h, mdl.dofmap.count)
+        lev = Levels(h, present, bounds, per_block, scaling, scene.guard.stable_step)
         R = present[-1]
         spec = dataclasses.replace(scene.partitions[0], integrator="levels" if len(present) > 1
                                    else "explicit", ratio=R, beta=0.0, gamma=0.5)
@@ -320,9 +308,8 @@ def auto_dt(scene, mdl, bounds, ratios, mass, lines) -> float:
     finest level it makes (a larger dt moves elements to the finest level, so
     a few passes): from safety x the smallest bound, which always holds."""
     safety = scene.time.safety
+    cap = min(safety, 1 - 1e-6)                  # never the critical step itself
     h = safety * min(float(b.steps.min()) for b in bounds)
-    crit = h / safety
-
     cache = {}
 
     def finest(step):
@@ -331,16 +318,16 @@ def auto_dt(scene, mdl, bounds, ratios, mass, lines) -> float:
         return 2.0 / omega if omega > 0 else np.inf
     crit = finest(h)
     for _ in range(FIXED_POINT_PASSES):
-        candidate = min(safety, 1 - 1e-6) * crit  # never the critical step itself
+        candidate = cap * crit
         if not np.isfinite(candidate) or candidate <= h * (1 + 1e-9):
             break
         c = finest(candidate)
-        if candidate > min(safety, 1 - 1e-6) * c:    # too far: bisect between h and it
+        if candidate > cap * c:                   # too far: bisect between h and it
             lo, hi = h, candidate
             for _ in range(BISECTIONS):
                 mid = 0.5 * (lo + hi)
                 c_mid = finest(mid)
-                if mid <= min(safety, 1 - 1e-6) * c_mid:
+                if mid <= cap * c_mid:
                     lo, crit = mid, c_mid
                 else:
                     hi = mid

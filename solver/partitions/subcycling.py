@@ -32,7 +32,6 @@ from __future__ import annotations
 import numpy as np
 
 
-
 def bind(p, levels):
     """``step(t1)`` for partition ``p``: one system step of the levels, with
     the level operators the partition built (``p.level_ops``: ratio ->

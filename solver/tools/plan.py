@@ -34,9 +34,11 @@ from scipy.sparse import coo_matrix
 from solver.errors import SceneError, SolverError
 from solver.model import arrays, binding, element_bounds
 from solver.model.arrays import dof_masses
+from solver.model.cell_blocks import kept
 from solver.partitions import levels as lv
 from solver.partitions.assembly import triplets
 from solver.petscutil import init
+from solver.scene.sections import MassScaling
 
 VECTOR_PASSES = {"uniform": 3, "levels": 2}      # vector sweeps per fine step besides MatMults
 
@@ -76,7 +78,7 @@ def level_nonzeros(mdl, bounds, per_block, ratios):
     n = mdl.n_dofs
     out = {}
     for r in ratios:
-        blocks = [(c[rs == r], lv.subset(K, rs == r)) for (c, K), rs in zip(lv.model_blocks(mdl), per_block)
+        blocks = [kept(c, K, rs == r) for (c, K), rs in zip(lv.model_blocks(mdl), per_block)
                   if (rs == r).any()]
         rows, cols, vals = triplets(blocks, mdl.dofmap)
         A = coo_matrix((np.ones_like(vals), (rows, cols)), shape=(n, n)).tocsr()
@@ -97,7 +99,8 @@ def candidates(scene, mdl, factors):
         added = 0.0
         if f is not None:
             target = f * min(float(b.steps.min()) for b in bounds)
-            spec = dataclasses.replace(scene.time, mass_scaling=_Target(target))
+            every = MassScaling(target, max_added=float("inf"))    # plan shows every target
+            spec = dataclasses.replace(scene.time, mass_scaling=every)
             scaling, m = lv.scale_mass(dataclasses.replace(scene, time=spec), m, bounds)
             added = scaling.fraction
         mass = dof_masses(m, np.arange(m.n_nodes))
@@ -117,12 +120,6 @@ def candidates(scene, mdl, factors):
         out.append((f"automatic levels{tag}", h, present,
                     level_nonzeros(m, bounds, per, present), added))
     return out
-
-
-@dataclasses.dataclass(frozen=True)
-class _Target:
-    dt: float
-    max_added: float = float("inf")      # plan shows every target with its added mass
 
 
 def predict(dt, ratios, nnz, c_nz, c_vec, n_dofs):
