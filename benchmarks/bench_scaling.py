@@ -13,11 +13,8 @@ same per system step.  Everything is measured in one run of this script:
 * weak scaling: the bar twice as thick on 2 ranks against the base on 1;
 * the floor: the same mesh as one monolithic explicit FEM partition (one
   PETSc explicit loop, no coupling) on 1 and 2 ranks;
-* beyond this machine, from the rank assignment and partitioner alone (no
-  run): owned DOF, ghosts and bytes exchanged per rank per system step and the
-  load imbalance for N = 2, 4, 8, 16, and the time per system step predicted
-  for a cluster from the per-nonzero cost measured here on 1 rank and a
-  stated network.
+* beyond this machine: benchmarks/bench_scaling_model.py (the rank
+  assignment and split for N = 2 ... 64 and the time and memory they predict).
 
 Writes docs/benchmarks/bench_scaling.md.
 """
@@ -36,7 +33,6 @@ sys.path.insert(0, str(ROOT))
 from solver.tools.sweep import run_one  # noqa: E402
 
 SCENE = str(ROOT / "configs" / "bar3d.yaml")
-LATENCY, BANDWIDTH = 2e-6, 10e9          # the cluster network assumed: 2 us, 10 GB/s per link
 
 
 def overrides(a, steps, T=0.016, monolithic=False):
@@ -61,57 +57,6 @@ def read_extra(path):
                 "rss": np.asarray(f.attrs["peak_rss_mb_per_rank"]),
                 "setup": float(f.attrs["setup_wall_time"]),
                 "dof": 3 * sum(int(g.attrs["n_owned"]) for g in f["partitions"].values())}
-
-
-def partition_table(a, counts):
-    """Per N: owned DOF, ghost and external DOF, bytes and messages per rank per
-    system step, load imbalance, from the solver's own assignment and split."""
-    from solver.partitions import distribute
-    from solver.model import arrays as model_mod
-    from solver.model import layout as overlap
-    from solver.partitions import ranks
-    from solver import scene as scene_mod
-    from solver.model import binding
-    from solver.partitions.partitioning import owned_nonzeros
-    from solver.coupling.schemes import scheme_class
-    scene = binding.load(SCENE, overrides(a, 10))
-    mdl = model_mod.build(scene)
-    graph = mdl.graph()
-    treat = scheme_class(scene.coupling.scheme).treatments(scene)
-    layouts = overlap.derive(graph, scene.partitions, overlap.layer_counts(scene.partitions, treat))
-    R = scene.system_ratio
-    dof = mdl.dof
-    costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
-             for lay, p in zip(layouts, scene.partitions)]
-    rows = []
-    for N in counts:
-        asg = ranks.assign(N, costs, [lay.n_owned for lay in layouts],
-                           [None] * len(layouts))
-        per_rank = {r: {"owned": 0, "ghost": 0, "ext": 0, "bytes": 0.0, "msgs": 0, "cost": 0.0}
-                    for r in range(N)}
-        for p, lay in enumerate(layouts):
-            dist = distribute.split(lay, graph, len(asg.ranks[p]))
-            piece_of = np.full(mdl.n_nodes, -1)
-            for piece in dist.pieces:
-                piece_of[piece.held] = piece.piece
-            n_sub = R // scene.partitions[p].ratio
-            for piece, r in zip(dist.pieces, asg.ranks[p]):
-                held = piece.held
-                cols = np.unique(graph.rows(held))
-                cols = cols[(dist.number[cols] >= 0) & (piece_of[cols] != piece.piece)]
-                peers = np.unique(piece_of[cols]).size
-                ext_peers = np.unique(piece.external_owner).size if piece.external.size else 0
-                d = per_rank[r]
-                d["owned"] += piece.n_owned * dof
-                d["ghost"] += cols.size * dof
-                d["ext"] += piece.external.size * dof
-                d["bytes"] += 8.0 * (cols.size * dof * n_sub + 3 * piece.external.size * dof)
-                d["msgs"] += peers * n_sub + ext_peers
-                d["cost"] += costs[p] * piece.n_owned / lay.n_owned
-        c = np.array([per_rank[r]["cost"] for r in range(N)])
-        rows.append({"N": N, "ranks": per_rank, "imbalance": float(c.max() / c.mean()),
-                     "total_cost": float(c.sum())})
-    return rows, float(sum(costs))
 
 
 def main():
@@ -173,28 +118,9 @@ def main():
               f"{1e3 * per(mono1):.1f} ms per step on 1 rank; the coupled run "
               f"{per(one) / per(mono1):.2f}x that (below 1: the lattice's bond operator has "
               "19 blocks per row where the hexahedra have 27)."]
-    counts = [2, 4, 8, 16]
-    table, total_cost = partition_table(args.a, counts)
-    c_nz = per(one) / total_cost                       # seconds per (nonzero x step) measured
-    lines += ["", "## Beyond 2 cores: partitioner alone", "",
-              f"The solver's own rank assignment and split (no run). Cost per rank = nonzeros x "
-              f"steps per system step; measured here on 1 rank: {1e9 * c_nz:.2f} ns per nonzero. "
-              f"Predicted time per system step on a cluster = max over ranks of (cost x "
-              f"{1e9 * c_nz:.2f} ns + messages x {LATENCY * 1e6:.0f} us + bytes / "
-              f"{BANDWIDTH / 1e9:.0f} GB/s), assuming a rank keeps this machine's per-core "
-              "memory bandwidth and messages are not overlapped with work.", "",
-              "| N | owned DOF per rank (min / max) | ghost DOF per rank (max) | external DOF per "
-              "rank (max) | bytes received per rank per system step (max) | messages (max) | "
-              "load imbalance (max / mean) | predicted ms per system step | predicted speed-up |",
-              "|---|---|---|---|---|---|---|---|---|"]
-    t1 = total_cost * c_nz
-    for row in table:
-        rk = row["ranks"].values()
-        t = max(d["cost"] * c_nz + d["msgs"] * LATENCY + d["bytes"] / BANDWIDTH for d in rk)
-        lines.append(f"| {row['N']} | {min(d['owned'] for d in rk):,} / {max(d['owned'] for d in rk):,} | "
-                     f"{max(d['ghost'] for d in rk):,} | {max(d['ext'] for d in rk):,} | "
-                     f"{max(d['bytes'] for d in rk) / 1e3:.1f} kB | {max(d['msgs'] for d in rk)} | "
-                     f"{row['imbalance']:.2f} | {1e3 * t:.2f} | {t1 / t:.1f} |")
+    lines += ["", "Beyond 2 cores: the performance model for N = 2 ... 64 (owned, ghost and halo "
+              "counts, bytes and messages per rank, memory and predicted time per rank, checked "
+              "against 2 measured ranks) is [bench_scaling_model.md](bench_scaling_model.md)."]
     text = "\n".join(lines) + "\n"
     print(text)
     Path(args.out).write_text(text)
