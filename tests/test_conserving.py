@@ -198,15 +198,6 @@ def test_loads_on_the_fine_side(tmp_path):
     assert out["conserving"] < 1.05 * out["staggered"], out       # (the coarse step limits both)
 
 
-def test_three_ranks_are_refused(tmp_path):
-    raw = chain(4)
-    raw["output"] = {"file": str(tmp_path / "o.h5")}
-    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)], n=3)
-    line, = proc.stderr.strip().splitlines()
-    assert proc.returncode == 4 and "conserving runs on 1 or 2 ranks" in line, proc.stderr
-    assert not (tmp_path / "o.h5").exists()
-
-
 def histories(path):
     with h5py.File(path) as f:
         return {k: f[f"probes/{k}/displacement"][()] for k in f["probes"]}, f.attrs["ranks"]
@@ -290,3 +281,123 @@ def test_strain_energy_of_both_sides_is_the_whole_chains(tmp_path):
     exact = 0.5 * float(np.sum(np.diff(ext) ** 2))
     asm.destroy()
     assert strain == pytest.approx(exact, rel=1e-12)
+
+
+def small_bar():
+    """wave_bar_mts at 0.8 mm cells (1,604 nodes) with its explicit region
+    [8, 16] mm near the loaded end, so the pulse enters it within 8 system
+    steps (coarse ratio 4); probes in and beside the region."""
+    raw = raw_scene("wave_bar_mts")
+    raw["model"]["mesh_parameters"] = {"a": 0.0008, "x1": 0.008, "x2": 0.016}
+    raw["time"] = {"end": 8 * 4 * 8e-8, "dt": 8e-8}
+    raw["partitions"][1]["ratio"] = 4
+    raw["probes"] = [{"name": n, "at": [x, 0.0012]} for n, x in (("A", 0.004), ("B", 0.012),
+                                                                   ("C", 0.024))]
+    raw["reference"] = "none"
+    return raw
+
+
+def loaded_dem_chain():
+    """The chain at m = 4 with a dem (velocity Verlet) fine side and a half-sine
+    on fine node 3: the fine side's load work is tracked on each of its ranks."""
+    raw = chain(4, end=12.0)
+    raw["partitions"][0].update(method="dem", integrator="verlet")
+    del raw["partitions"][0]["beta"]
+    raw["loads"] = [{"node": 3, "kind": "half_sine", "amplitude": 0.2, "duration": 5.0}]
+    return raw
+
+
+N_RANKS = (1, 2, 3, 4)
+# scene, and the partitions[].ranks (fine, coarse) on 3 and 4 ranks (None: by cost);
+# a coarse side on several ranks solves iteratively (CG + GAMG, rtol 1e-12)
+N_RANK_CASES = [
+    ("chain", {3: None, 4: (2, 2)}),
+    ("loaded_dem_chain", {3: (1, 2), 4: (3, 1)}),
+    ("small_bar", {3: (2, 1), 4: (2, 2)}),
+]
+BY_COST_ON_3 = (2, 1)                   # the chain's fine side costs 8 x the coarse one
+
+
+@pytest.fixture(scope="module")
+def n_rank_runs(tmp_path_factory):
+    """Every case of N_RANK_CASES on 1, 2, 3 and 4 ranks, one launch per rank
+    count (tests/mpi/cli_cases.py), each with its final state (checkpoint) and
+    energies every system step: c{i}_n{n}.h5, its log c{i}_n{n}.log."""
+    tmp = tmp_path_factory.mktemp("n_ranks")
+    scenes = {"chain": lambda: chain(8, end=10.0), "loaded_dem_chain": loaded_dem_chain,
+              "small_bar": small_bar}
+    for n in N_RANKS:
+        argvs = []
+        for i, (scene, given) in enumerate(N_RANK_CASES):
+            raw = scenes[scene]()
+            raw["output"] = {"file": str(tmp / f"c{i}_n{n}.h5"), "energy_every": 1,
+                             "checkpoint": {"every": 1000}, "progress": 0}
+            sets = []
+            if given.get(n):
+                sets = [f"partitions.{k}.ranks={r}" for k, r in enumerate(given[n])]
+            argvs.append(([write_scene(tmp / f"c{i}_s{n}.yaml", raw),
+                           *sum((["--set", x] for x in sets), [])], tmp / f"c{i}_n{n}.log"))
+        proc = run_cases(argvs, tmp, n=n if n > 1 else None, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+    return tmp
+
+
+def final_state(path):
+    """(probe histories, energies, final owned states per partition, the scheme's
+    checkpoint memory, ranks) of an output file."""
+    with h5py.File(path) as f:
+        g = f["checkpoint"]
+        parts = {k: (g[f"partitions/{k}/nodes"][()], g[f"partitions/{k}/uva"][()])
+                 for k in g["partitions"]}
+        memory = {k: g[f"scheme/{k}"][()] for k in g["scheme"]}
+        return ({k: f[f"probes/{k}/displacement"][()] for k in f["probes"]},
+                f["energy/total"][()], parts, memory, f.attrs["ranks"])
+
+
+@pytest.mark.parametrize("case", range(len(N_RANK_CASES)),
+                         ids=[s for s, _ in N_RANK_CASES])
+def test_each_side_on_several_ranks_matches_one_rank(case, n_rank_runs):
+    """Each side split over its own ranks: on 2 ranks (one per side) the 1-rank
+    run to the last bit; with the fine side split (explicit) to 1e-12 of the
+    largest value, with the coarse side split (CG + GAMG at rtol 1e-12) to
+    1e-8: probes, the final state of every node, the interface memory of the
+    checkpoint, and the energy (so its drift is the 1-rank run's)."""
+    scene, given = N_RANK_CASES[case]
+    one = final_state(n_rank_runs / f"c{case}_n1.h5")
+    energy = one[1]
+    e_scale = np.abs(energy).max()                  # (the bar starts at rest: E(0) = 0)
+    assert np.abs(energy - energy[0]).max() > 0 and e_scale > 0
+    for n in N_RANKS[1:]:
+        probes, total, parts, memory, ranks = final_state(n_rank_runs / f"c{case}_n{n}.h5")
+        assert ranks == n
+        log = (n_rank_runs / f"c{case}_n{n}.log").read_text()
+        fine, coarse = (1, 1) if n == 2 else given[n] or BY_COST_ON_3
+        assert f"sides on {fine} + {coarse} rank(s)" in log, log
+        assert ("iterative, KSP cg + PC gamg" in log) == (coarse > 1), log
+        tol = 0.0 if n == 2 else 1e-8 if coarse > 1 else 1e-12
+        for k, h in one[0].items():
+            assert np.abs(probes[k] - h).max() <= tol * np.abs(h).max(), (n, k)
+        for name, (nodes, uva) in one[2].items():
+            assert np.array_equal(parts[name][0], nodes)
+            for row in range(3):               # u, v, a each against its own scale
+                scale = np.abs(uva[row]).max()
+                assert scale > 0 and np.abs(parts[name][1][row] - uva[row]).max() <= tol * scale, \
+                    (n, name, row)
+        for key, value in one[3].items():
+            assert np.abs(memory[key] - value).max() <= tol * np.abs(value).max(), (n, key)
+        drift_1, drift_n = np.abs(energy - energy[0]).max(), np.abs(total - total[0]).max()
+        assert abs(drift_n - drift_1) <= max(tol, 1e-12) * e_scale, (n, drift_1, drift_n)
+        assert np.abs(total - energy).max() <= max(tol, 1e-12) * e_scale, n
+
+
+def test_partition_ranks_that_do_not_fit_are_refused(tmp_path):
+    """partitions[].ranks that do not add up to the launch: one line, exit 4,
+    no output file."""
+    raw = chain(4)
+    raw["output"] = {"file": str(tmp_path / "o.h5")}
+    raw["partitions"][0]["ranks"] = 2
+    raw["partitions"][1]["ranks"] = 2
+    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)], n=3)
+    line, = proc.stderr.strip().splitlines()
+    assert proc.returncode == 4 and "partitions[].ranks add up to 4" in line, proc.stderr
+    assert not (tmp_path / "o.h5").exists()

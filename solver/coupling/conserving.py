@@ -29,9 +29,22 @@ full mass).  The fine side steps once per fine step; its response to V is
 linear and precomputed (response matrix S over the rows it reaches), so the
 coupling costs one extra coarse solve and one small dense solve per system
 step.  Linear partitions only; loads on either side (the fine side's work is
-tracked on its true path); 1 or 2 ranks.
+tracked on its true path).
+
+Ranks: each side runs on its own ranks (shared by estimated cost, or
+``partitions[].ranks``; on one rank both share it), split as any partition is
+(:mod:`solver.partitions.distribute`).  The fine response S is distributed
+with the fine rows (each rank keeps its rows); the interface unknowns stay
+small and replicated: each interface DOF is one fine piece's external and one
+coarse piece's owned row, so one allreduce of 4 x (interface DOFs) values
+per system step gathers the interface vectors exactly, and every rank solves
+Z V = b.  A coarse side on several ranks solves with the partition's
+default there (CG + GAMG, rtol 1e-12: this PETSc has no parallel direct
+solver), so results agree with one rank to the solver's tolerance.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,13 +53,14 @@ from solver.model.layout import Layout
 from solver.coupling.scheme import two_sides
 from solver.coupling.system_step import Clocks
 from solver.coupling.gc import OwnSides
-from solver.errors import LaunchError, SceneError, SolverError
+from solver.errors import SceneError, SolverError, StabilityError
 from solver.laws import BOND_GEOMETRIES
-from solver.partitions import integrators, stability
+from solver.partitions import distribute, integrators, ranks, stability
 from solver.model.cell_blocks import kept
 from solver.partitions.dem import DemPartition
-from solver.partitions.fem import FemPartition
-from solver.petscutil import init
+from solver.partitions.fem import DIRECT_PCS, FemPartition
+from solver.partitions.partitioning import owned_nonzeros
+from solver.petscutil import init, vec_on
 from solver.scene.schema import fail
 
 
@@ -115,27 +129,89 @@ def side_model(scene, mdl, f, k):
     return SideModel(mdl, on_fine if k == f else (lambda conn: ~on_fine(conn)), loads)
 
 
-def held_nodes(scene, k, f, iface):
-    owned = np.unique(np.asarray(scene.partitions[k].nodes, dtype=np.int64))
-    return owned, (np.concatenate([owned, iface]) if k == f else owned)
+def side_layouts(scene, f, iface):
+    """The two sides' layouts (whole partitions): the fine side owns its nodes
+    and holds the interface nodes as one external layer, the coarse side owns
+    its nodes and holds nothing else."""
+    out, empty = [], np.zeros(0, dtype=np.int64)
+    for k, spec in enumerate(scene.partitions):
+        owned = np.unique(np.asarray(spec.nodes, dtype=np.int64))
+        if k == f:
+            out.append(Layout(spec.name, k, owned, empty, owned, (iface,),
+                              np.full(iface.size, 1 - f, dtype=np.int64)))
+        else:
+            out.append(Layout(spec.name, k, owned, empty, owned, (), empty))
+    return out
+
+
+@dataclass
+class Plan:
+    """What rank 0 decides for every rank (small arrays, broadcast)."""
+    f: int
+    c: int
+    iface: np.ndarray        # interface nodes
+    dofs: np.ndarray         # their free DOFs (model numbering): the interface unknowns
+    layouts: list            # both sides, whole
+    assignment: object       # ranks.Assignment: the world ranks of each side
+    dists: list              # each side over its ranks (distribute.Distribution)
+    freqs: dict              # name -> (Frequency, critical step) or (None, None): after building
+
+
+NOTE = "conserving scheme: the fine side with its interface nodes at full mass"
+
+
+def plan(scene, mdl, size):
+    """On rank 0 with the whole model: the interface, both layouts, the ranks
+    of each side (by estimated cost, as for any scheme: :mod:`solver.partitions.ranks`;
+    on one rank both sides share it), each side split over its ranks, the
+    stability check before building, and every rank's share of the model (the
+    elements touching the nodes its pieces hold)."""
+    f, c, iface = interface(scene, mdl)
+    graph = mdl.graph()
+    layouts = side_layouts(scene, f, iface)
+    specs = scene.partitions
+    R = scene.system_ratio
+    costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
+             for lay, p in zip(layouts, specs)]
+    requested = [p.ranks for p in specs] if size > 1 else [None, None]
+    assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts], requested)
+    # a side on one rank keeps its nodes in layout order (the 1- and 2-rank runs' numbering)
+    dists = [distribute.split(lay, graph, len(rs)) if len(rs) > 1 else
+             distribute.whole(lay, mdl.n_nodes) for lay, rs in zip(layouts, assignment.ranks)]
+    freqs = {}
+    for k in (f, c):
+        fr, crit, problem = stability.check(scene, specs[k], side_model(scene, mdl, f, k),
+                                            layouts[k].held)
+        if problem:
+            raise StabilityError(f"{problem} ({NOTE})")
+        freqs[specs[k].name] = (fr, crit)
+    gd = mdl.dofmap.dofs(iface)
+    gd = gd[~mdl.fixed[gd]]
+    shares = [mdl]                           # rank 0 keeps the whole model (it writes fields)
+    for r in range(1, size):
+        held = [dists[k].pieces[assignment.ranks[k].index(r)].held
+                for k in assignment.partitions_on(r)]
+        shares.append(mdl.share(np.concatenate(held) if held else np.zeros(0, np.int64)))
+    return Plan(f, c, iface, gd, layouts, assignment, dists, freqs), shares
 
 
 class Conserving(OwnSides):
     name = "conserving"
     summary = ("energy-conserving multi-time-step coupling of an explicit fem or dem partition "
                "and an implicit one at any ratio (stable by construction; no heat, linear bonds; "
-               "docs/conserving.md, 1 or 2 ranks)")
+               "docs/conserving.md, any number of ranks)")
     about = ("energy-conserving multi-time-step coupling (docs/conserving.md): the fine "
              "side follows the coarse side's straight displacement path on a shared "
              "interface, and a discrete energy is conserved to round-off")
     supports = ("network and continuum models without heat and with linear bonds; exactly "
                 "two partitions on a node-matching interface: fem+implicit (average "
                 "acceleration: beta 0.25, gamma 0.5) with the largest ratio and fem+explicit "
-                "(central difference: beta 0, gamma 0.5) or dem+verlet; 1 or 2 ranks (one per "
-                "side)")
+                "(central difference: beta 0, gamma 0.5) or dem+verlet; any number of ranks "
+                "(each side on its own ranks, shared by cost or partitions[].ranks; the "
+                "interface system replicated)")
     limit = ("stable at any ratio whenever each side is: the fine side's own explicit "
              "limit with the interface nodes at full mass; the coarse side none")
-    max_ranks = 2
+    max_ranks = None
 
     @classmethod
     def validate(cls, scene):
@@ -163,115 +239,129 @@ class Conserving(OwnSides):
         super().validate(scene)
 
     @classmethod
-    def check_launch(cls, scene, size: int):
-        """At most 2 ranks, each side on one."""
-        super().check_launch(scene, size)
-        for k, p in enumerate(scene.partitions):
-            if p.ranks is not None and p.ranks != 1:
-                raise LaunchError(f"partitions[{k}].ranks: coupling.scheme conserving runs each "
-                                  "side on one rank")
-
-    @classmethod
     def build(cls, scene, model, comm, say):
-        return cls(scene, model, comm)
+        return cls(scene, model, comm, say)
 
-    def __init__(self, scene, mdl, comm):
-        """Rank 0 (the whole model) finds the interface; on 2 ranks partition k
-        runs on rank k and rank 1 gets only its side's share of the model."""
+    def __init__(self, scene, mdl, comm, say=None):
+        """Rank 0 (the whole model) finds the interface and plans; every rank
+        gets the plan and its share of the model and builds its side's piece
+        on that side's communicator."""
         P = init()
         self.comm = comm
-        f, c, iface = on_root(comm, interface, scene, mdl)
-        self.f, self.c, self.iface, self._scene = f, c, iface, scene
-        local = [f, c] if comm.size == 1 else [comm.rank]
+        decided, shares = on_root(comm, plan, scene, mdl, comm.size, share=False) or (None, None)
         if comm.size > 1:
-            share = None
-            if comm.rank == 0:
-                share = mdl.share(held_nodes(scene, 1, f, iface)[1])
-                comm.send(share, dest=1)
-            else:
-                mdl = comm.recv(source=0)
+            decided = comm.bcast(decided)
+            mdl = comm.scatter(shares)
+        else:
+            mdl, = shares
+        del shares
+        f, c = decided.f, decided.c
+        self.f, self.c, self.iface, self._scene = f, c, decided.iface, scene
+        self.layouts, self.sides = decided.layouts, decided.assignment
+        if say is not None and comm.size > 1:
+            for line in self.sides.lines([p.name for p in scene.partitions]):
+                say(line)
+        comms = ranks.communicators(comm, self.sides)
         self.model = mdl
         specs = scene.partitions
         R, dt = scene.system_ratio, scene.time.dt
-        self.freqs, built, error = {}, {}, None
+        self.freqs, built, error = dict(decided.freqs), {}, None
         try:
-            for k in local:
+            for k in self.sides.partitions_on(comm.rank):
                 m = side_model(scene, mdl, f, k)
-                lay = self.layout(k)
+                dist = decided.dists[k]
+                piece = dist.pieces[self.sides.ranks[k].index(comm.rank)]
                 kind = DemPartition if specs[k].method == "dem" else FemPartition
-                part, self.freqs[specs[k].name] = stability.side(
-                    scene, specs[k], m, lay.held,
-                    lambda: kind(specs[k], lay, m, P.COMM_SELF, "taylor" if k == f else "literal",
-                                 dt, R, scene.damping),
-                    "conserving scheme: the fine side with its interface nodes at full mass")
-                built[k] = (part, m)
+                built[k] = (kind(specs[k], piece, m, comms[k], "taylor" if k == f else "literal",
+                                 dt, R, scene.damping, dist=dist), m)
         except SolverError as e:
             error = e
         agree(comm, error)
-        if comm.size > 1:
-            for chunk in comm.allgather(self.freqs):
-                self.freqs.update(chunk)
+        self._large_sides(scene, built, comm)
         self.parts = [built[k][0] for k in sorted(built)]
         self.models = {built[k][0].name: built[k][1] for k in built}
         self.F = built[f][0] if f in built else None
         self.C = built[c][0] if c in built else None
         self.m = scene.system_ratio // specs[f].ratio
         self.T = specs[c].ratio * dt
-        # interface DOFs: the free DOFs of the interface nodes, as rows of F
-        # (externals) and of C
-        dm = mdl.dofmap
-        gd = dm.dofs(iface)
-        gd = gd[~mdl.fixed[gd]]
+        # interface DOFs: their positions in the interface vectors (0..n-1) and
+        # the local rows of those this rank's pieces hold (F: externals, C: owned)
+        gd = decided.dofs
         self.n = gd.size
-        self.rf = self._rows(self.F, gd)
-        self.rc = self._rows(self.C, gd)
+        self.pf, self.rf = self._rows(self.F, gd)
+        self.pc, self.rc = self._rows(self.C, gd)
         self.replay = self.F is not None and bool(self.F.damping)
+        self.r0, self.G0 = np.zeros(self.n), np.zeros(self.n)
         if self.F is not None:
             if self.F.damping:
                 self.F.clear_external_mass_damping()      # interface inertia is the coarse side's
             self.F.n_energy = self.F.U.size               # its elements' energy on the interface rows
-            self.r0 = np.zeros(self.n)
-        if self.C is not None:
-            self.G0 = np.zeros(self.n)
         self._set_up(P)
         self.clocks = Clocks(self.parts, [p.name for p in specs], comm)
-        self.layouts = [self.layout(k) for k in range(2)]
 
-    def layout(self, k):
-        owned = held_nodes(self._scene, k, self.f, self.iface)[0]
-        empty = np.zeros(0, dtype=np.int64)
-        if k == self.f:
-            return Layout(self._scene.partitions[k].name, k, owned, empty, owned, (self.iface,),
-                          np.full(self.iface.size, self.c, dtype=np.int64))
-        return Layout(self._scene.partitions[k].name, k, owned, empty, owned, (), empty)
+    def _large_sides(self, scene, built, comm):
+        """Sides too large for the check before building: the estimate from the
+        assembled operator (collective on the side's ranks), then refuse."""
+        local, error = {}, None
+        try:
+            for part, _ in built.values():
+                if self.freqs[part.name][0] is None:
+                    fr, crit, problem = stability.assembled(scene, part)
+                    if problem:
+                        raise StabilityError(f"{problem} ({NOTE})")
+                    local[part.name] = (fr, crit)
+        except SolverError as e:
+            error = e
+        agree(comm, error)
+        for chunk in (comm.allgather(local) if comm.size > 1 else [local]):
+            self.freqs.update(chunk)
 
     @staticmethod
     def _rows(part, gdofs):
-        """Local rows of global DOFs ``gdofs`` in ``part`` (None: not on this rank)."""
-        if part is None:
-            return None
-        order = np.argsort(part.held_dofs)
-        return order[np.searchsorted(part.held_dofs[order], gdofs)].astype(np.int64)
+        """(positions in ``gdofs``, local rows) of the global DOFs ``gdofs`` that
+        ``part``'s piece on this rank holds (none where no piece of it is here)."""
+        if part is None or not part.held_dofs.size:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        held = part.held_dofs
+        order = np.argsort(held)
+        at = np.minimum(np.searchsorted(held[order], gdofs), held.size - 1)
+        hit = held[order][at] == gdofs
+        return np.flatnonzero(hit), order[at[hit]].astype(np.int64)
 
-    def _owner(self, k):
-        """The rank of partition k."""
-        return 0 if self.comm.size == 1 else k
+    def _sum(self, *arrays):
+        """Interface arrays summed over the ranks, with one allreduce for all:
+        every entry is one rank's and zero on the others, so the sum is exact
+        (the 1-rank values to the last bit)."""
+        if self.comm.size == 1:
+            return arrays
+        from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
+        flat = np.concatenate([np.ravel(a) for a in arrays])
+        self.comm.Allreduce(MPI.IN_PLACE, flat, op=MPI.SUM)
+        out, at = [], 0
+        for a in arrays:
+            out.append(flat[at:at + np.size(a)].reshape(np.shape(a)))
+            at += np.size(a)
+        return out
 
     # ---------------------------------------------------------------- set-up
     def _coarse_solve(self, forces):
-        """K_eff^-1 E_I forces (the coarse side's acceleration per interface force)."""
+        """K_eff^-1 E_I forces (the coarse side's acceleration per interface
+        force; ``forces``: the whole interface vector, this rank's rows used;
+        collective on the coarse side's ranks)."""
         self._rhs.set(0.0)
-        self._rhs.getArray()[self.rc] = forces
+        self._rhs.getArray()[self.rc] = forces[self.pc]
         self.C.ksp.solve(self._rhs, self._sol)
         return self._sol.getArray()
 
     def _fine_pass(self, t0, V, loads=True):
         """The fine side's m steps from its current state with the interface on
-        u_I(t_0) + s V; returns (mean reaction, last reaction).  The residuals
-        are summed over all held rows with VecAXPY (cheaper per step than
-        picking the interface rows) and the interface rows read once."""
-        F, rf, step, m = self.F, self.rf, self.F.step_once, self.m
-        F.V[rf], F.A[rf] = V, 0.0
+        u_I(t_0) + s V; returns (mean reaction, last reaction) as interface
+        vectors, this rank's rows filled (zero elsewhere).  The residuals are
+        summed over all held rows with VecAXPY (cheaper per step than picking
+        the interface rows) and the interface rows read once.  Collective on
+        the fine side's ranks."""
+        F, rf, pf, step, m = self.F, self.rf, self.pf, self.F.step_once, self.m
+        F.V[rf], F.A[rf] = V[pf], 0.0
         racc, axpy, r = self._racc, self._racc.axpy, F.r
         racc.set(0.0)
         rows, path, values, groups = self._ld_rows, self._path, self._values, F.load_groups
@@ -283,15 +373,18 @@ class Conserving(OwnSides):
                 values[j] = [g.val for g in groups]     # g(t_j), as the residual applied it
         if loads:
             F.steps += m
-        last = -F.R[rf]
-        return (0.5 * self.r0 - self._Racc[rf]) / m, last
+        mean, last = np.zeros(self.n), np.zeros(self.n)
+        mean[pf] = (0.5 * self.r0[pf] - self._Racc[rf]) / m
+        last[pf] = -F.R[rf]
+        return mean, last
 
     def _set_up(self, P):
-        """Responses to a unit interface velocity: the fine side's state S and
-        reactions (Rbar mean, Rm last) on the fine rank, the coarse X_II on the
-        coarse rank; both replicated, Z factored on every rank."""
+        """Responses to a unit interface velocity: the fine side's state S (its
+        own rows on each of its ranks) and reactions (Rbar mean, Rm last), the
+        coarse X_II; the interface-sized Rbar, Rm and X_II replicated on every
+        rank (one allreduce), Z factored on every rank."""
         n, F, C = self.n, self.F, self.C
-        Rbar, X, self.Rm = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+        Rbar, X, Rm = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
         if F is not None:
             groups = F.load_groups
             self._ld_rows = np.concatenate([g.own for g in groups]) if groups else \
@@ -305,7 +398,7 @@ class Conserving(OwnSides):
                 at += g.own.size
             self._ld_resp = np.zeros((self.m + 1, self._ld_rows.size, n))
             self._Racc = np.zeros(F.R.size)
-            self._racc = P.Vec().createWithArray(self._Racc, comm=P.COMM_SELF)
+            self._racc = vec_on(self._Racc, F.comm)       # F.r's layout (VecAXPY)
             saved = F.state.copy()
             cols = []
             with F.loads_off():                 # the response to V alone
@@ -313,7 +406,7 @@ class Conserving(OwnSides):
                     F.state[...] = 0.0
                     V = np.zeros(n)
                     V[k] = 1.0
-                    Rbar[:, k], self.Rm[:, k] = self._fine_pass(0.0, V, loads=False)
+                    Rbar[:, k], Rm[:, k] = self._fine_pass(0.0, V, loads=False)
                     self._ld_resp[:, :, k] = self._path
                     reached = np.flatnonzero(F.state.reshape(-1))
                     cols.append((reached, F.state.reshape(-1)[reached]))
@@ -323,21 +416,18 @@ class Conserving(OwnSides):
             self._link = (P.Vec().createWithArray(self._Vf, comm=P.COMM_SELF),
                           P.Vec().createWithArray(F.state.reshape(-1), comm=P.COMM_SELF))
         if C is not None:
-            self._rhs, self._sol = P.Vec().createSeq(C.n_own), P.Vec().createSeq(C.n_own)
+            self._rhs, self._sol = vec_on(np.zeros(C.n_own), C.comm), vec_on(np.zeros(C.n_own),
+                                                                           C.comm)
             for k in range(n):
                 e = np.zeros(n)
                 e[k] = 1.0
-                X[:, k] = self._coarse_solve(e)[self.rc]
-        if self.comm.size > 1:
-            self.comm.Bcast(Rbar, root=self._owner(self.f))
-            self.comm.Bcast(self.Rm, root=self._owner(self.f))
-            self.comm.Bcast(X, root=self._owner(self.c))
-        self.Rbar, self.X_II = Rbar, X
+                X[self.pc, k] = self._coarse_solve(e)[self.rc]
+        self.Rbar, self.Rm, self.X_II = self._sum(Rbar, Rm, X)
         self.c_link = 2.0 * self._scene.partitions[self.c].beta * self.T ** 2
-        self._buf = np.zeros(3 * n)
+        self._buf = np.zeros(4 * n)
         self.zksp = None
         if n:
-            Z = self.T * np.eye(n) + self.c_link * X @ Rbar
+            Z = self.T * np.eye(n) + self.c_link * self.X_II @ self.Rbar
             self.Z = P.Mat().createDense((n, n), array=Z, comm=P.COMM_SELF)
             self.Z.assemble()
             ksp = P.KSP().create(P.COMM_SELF)
@@ -347,11 +437,21 @@ class Conserving(OwnSides):
             ksp.setUp()
             self.zksp = ksp
             self._b, self._V = self.Z.createVecs()
+        self._coarse_ksp = self._coarse_solver()
+
+    def _coarse_solver(self):
+        """(ranks, KSP type, PC type) of the coarse side's solves, on every rank."""
+        C = self.C
+        mine = (C.comm.size, C.ksp.getType(), C.ksp.getPC().getType()) \
+            if C is not None and C.layout.piece == 0 else None
+        if self.comm.size == 1:
+            return mine
+        return next(x for x in self.comm.allgather(mine) if x is not None)
 
     @staticmethod
     def _response(cols, size, P):
-        """The fine state's response to V as a sparse PETSc matrix (rows: the
-        fine state's entries, columns: the interface DOFs)."""
+        """The fine state's response to V as a sparse PETSc matrix (rows: this
+        rank's fine state entries, columns: the interface DOFs)."""
         rows = np.concatenate([r for r, _ in cols]) if cols else np.zeros(0, np.int64)
         vals = np.concatenate([v for _, v in cols]) if cols else np.zeros(0)
         cidx = np.concatenate([np.full(r.size, k) for k, (r, _) in enumerate(cols)]) \
@@ -364,13 +464,19 @@ class Conserving(OwnSides):
 
     def describe(self) -> str:
         specs = self._scene.partitions
+        sides = [len(self.sides.ranks[k]) for k in (self.f, self.c)]
+        ranks_, ksp, pc = self._coarse_ksp
+        solves = "" if pc in DIRECT_PCS else (
+            f"; coarse solves on {ranks_} ranks iterative, KSP {ksp} + PC {pc} to rtol 1e-12 "
+            "(this PETSc has no parallel direct solver; -"
+            f"{specs[self.c].name}_ksp_* / _pc_* options choose another)")
         return (f"energy-conserving multi-time-step coupling: {self.iface.size} interface node(s) "
                 f"{self.iface.tolist()[:6]}, fine '{specs[self.f].name}' on the coarse side's "
                 f"straight interface path, coarse '{specs[self.c].name}' with the fine reactions' "
                 f"trapezoidal mean; {self.n}x{self.n} interface system factored once"
-                + (f", one allreduce of 3 x {self.n} values per system step"
-                   if self.comm.size > 1 else "")
-                + f"; stable by construction at any ratio (here {self.m})")
+                + (f" on every rank; sides on {sides[0]} + {sides[1]} rank(s), one allreduce of "
+                   f"4 x {self.n} values per system step" if self.comm.size > 1 else "")
+                + solves + f"; stable by construction at any ratio (here {self.m})")
 
     # -------------------------------------------------------------- stepping
     def initialise(self, model):
@@ -380,17 +486,18 @@ class Conserving(OwnSides):
             part.initialise(self.models[part.name])
         if self.F is not None:
             self._reaction()
-        r0 = self.r0 if self.F is not None else np.zeros(self.n)
-        if self.comm.size > 1:
-            self.comm.Bcast(r0, root=self._owner(self.f))
+        r0, = self._sum(self.r0)
+        self.r0 = r0
         if self.C is not None:
             self.G0 = -r0
-            self.C.A[self.rc] += self.G0 * self.C.inverse_mass[self.rc]
+            self.C.A[self.rc] += self.G0[self.pc] * self.C.inverse_mass[self.rc]
 
     def _reaction(self):
+        """r_0 on this rank's fine interface rows (collective on the fine side)."""
         F = self.F
         F.internal_force(F.u, F.r)
-        self.r0 = -F.R[self.rf]
+        self.r0 = np.zeros(self.n)
+        self.r0[self.pf] = -F.R[self.rf]
 
     def synchronise(self):
         """The interface state from the coarse side (restarts, the step-matrix
@@ -399,40 +506,43 @@ class Conserving(OwnSides):
         C = self.C
         uv = np.zeros((2, self.n))
         if C is not None:
-            uv[:] = C.U[self.rc], C.V[self.rc]
-        if self.comm.size > 1:
-            self.comm.Bcast(uv, root=self._owner(self.c))
+            uv[:, self.pc] = C.U[self.rc], C.V[self.rc]
+        uv, = self._sum(uv)
         if self.F is not None:
-            self.F.U[self.rf], self.F.V[self.rf] = uv
+            self.F.U[self.rf], self.F.V[self.rf] = uv[:, self.pf]
             self._reaction()
         if C is not None:
             C.residual(C.steps * C.dt, C.u, C.v)
-            self.G0 = C.mass[self.rc] * C.A[self.rc] - C.R[self.rc]
+            self.G0 = np.zeros(self.n)
+            self.G0[self.pc] = C.mass[self.rc] * C.A[self.rc] - C.R[self.rc]
 
     def memory(self) -> dict:
         """The interface force G_0 (coarse side), the fine side's reaction r_0 and
-        its own copy of the interface state as the last step left them:
-        synchronise() recovers them from the coarse side, equal to round-off;
-        the checkpoint keeps them so a restart is bitwise."""
-        out = {}
+        its own copy of the interface state as the last step left them, whole
+        interface vectors on every rank (collective): synchronise() recovers
+        them from the coarse side, equal to round-off; the checkpoint keeps
+        them so a restart is bitwise."""
+        G0, r0, fine = np.zeros(self.n), np.zeros(self.n), np.zeros((3, self.n))
         if self.C is not None:
-            out["G0"] = np.array(self.G0, dtype=float)
+            G0[self.pc] = self.G0[self.pc]
         if self.F is not None:
-            out["r0"] = np.array(self.r0, dtype=float)
-            out["fine_interface"] = self.F.state[:, self.rf].copy()   # its own u, v, a there
-        return out
+            r0[self.pf] = self.r0[self.pf]
+            fine[:, self.pf] = self.F.state[:, self.rf]           # its own u, v, a there
+        G0, r0, fine = self._sum(G0, r0, fine)
+        return {"G0": G0, "r0": r0, "fine_interface": fine}
 
     def restore_memory(self, memory: dict):
         if self.C is not None and "G0" in memory:
             self.G0 = np.array(memory["G0"], dtype=float)
         if self.F is not None and "r0" in memory:
             self.r0 = np.array(memory["r0"], dtype=float)
-            self.F.state[:, self.rf] = memory["fine_interface"]
+            self.F.state[:, self.rf] = np.asarray(memory["fine_interface"])[:, self.pf]
 
     def step(self, t0: float):
-        """Coarse free step and fine free pass (concurrent on 2 ranks), one
-        reduction of the interface system's right-hand side and the fine mean
-        reaction, the interface solve (on every rank), then both corrections."""
+        """Coarse free step and fine free pass (concurrent when the sides are on
+        different ranks), one reduction of the interface system's right-hand
+        side and the fine reactions, the interface solve (on every rank), then
+        both corrections."""
         clocks, n, buf = self.clocks, self.n, self._buf
         buf[:] = 0.0
         if self.C is not None:
@@ -441,15 +551,18 @@ class Conserving(OwnSides):
             clocks.part(self.F, self._fine_free, t0)
         if self.comm.size > 1:
             clocks.exchange(self._reduce)
+        # the coarse free interface displacement, the fine start, mean and last reactions
+        u_free, u_fine, rbar0, rm0 = buf[:n], buf[n:2 * n], buf[2 * n:3 * n].copy(), \
+            buf[3 * n:].copy()
         V = np.zeros(n)
         if self.zksp is not None:
-            self._b.getArray()[:] = buf[:n]
+            self._b.getArray()[:] = u_free + (-u_fine - self.c_link * (self.X_II @ rbar0))
             self.zksp.solve(self._b, self._V)
             V = self._V.getArray().copy()
         if self.F is not None:
-            clocks.part(self.F, self._fine_link, V)
+            clocks.part(self.F, self._fine_link, V, rm0)
         if self.C is not None:
-            clocks.part(self.C, self._coarse_link, V, buf[n:2 * n].copy(), buf[2 * n:].copy())
+            clocks.part(self.C, self._coarse_link, V, rbar0, rm0)
 
     def _reduce(self):
         from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
@@ -461,16 +574,16 @@ class Conserving(OwnSides):
         C, rc = self.C, self.rc
         C.integrator.predict(C)
         C.residual(t_m, C.ut, C.vt)
-        C.R[rc] -= self.G0
+        C.R[rc] -= self.G0[self.pc]
         C.accelerate()
-        self._buf[:self.n] = C.work_array("ut")[rc] + C.integrator.beta * C.dt ** 2 * C.A[rc]
+        self._buf[self.pc] = C.work_array("ut")[rc] + C.integrator.beta * C.dt ** 2 * C.A[rc]
 
     def _fine_free(self, t0):
-        """The fine pass with the interface held (V = 0); its share of the
-        interface system's right-hand side and its mean reaction.  A damped
-        fine side keeps its start state for the replay (:meth:`_fine_link`)
-        and dissipates nothing on this path."""
-        F, n = self.F, self.n
+        """The fine pass with the interface held (V = 0); its start interface
+        displacement and its mean and last reactions go into the reduction.  A
+        damped fine side keeps its start state for the replay
+        (:meth:`_fine_link`) and dissipates nothing on this path."""
+        F, n, pf = self.F, self.n, self.pf
         uF0 = F.U[self.rf].copy()
         if self._ld_rows.size:
             self._u0 = F.U[self._ld_rows]
@@ -478,13 +591,13 @@ class Conserving(OwnSides):
         if self.replay:
             self._start = (t0, F.state.copy())
             F.stepping = False                      # no dissipation on the free path
-        rbar0, self._rm0 = self._fine_pass(t0, 0.0)
+        rbar0, rm0 = self._fine_pass(t0, np.zeros(n))
         F.stepping = True
-        self._buf[:n] += -uF0 - self.c_link * (self.X_II @ rbar0)
-        self._buf[n:2 * n] = rbar0
-        self._buf[2 * n:] = self._rm0
+        self._buf[n + pf] = uF0
+        self._buf[2 * n + pf] = rbar0[pf]
+        self._buf[3 * n + pf] = rm0[pf]
 
-    def _fine_link(self, V):
+    def _fine_link(self, V, rm0):
         """The fine state plus its response to V; the next pass's first reaction.
         Damped, the fine side instead repeats its pass from the start state on
         the solved interface path: its dissipation h v.C v is quadratic in V,
@@ -499,7 +612,7 @@ class Conserving(OwnSides):
         v, state = self._link
         self._Vf[:] = V
         self.S.multAdd(v, state, state)
-        self.r0 = self._rm0 + self.Rm @ V
+        self.r0 = rm0 + self.Rm @ V
         if self._ld_rows.size:
             self._track_work(V)
 
@@ -537,5 +650,5 @@ class Conserving(OwnSides):
         round-off).  With G = -r_m the coarse interface acceleration is
         Newton's at t_m: (coarse forces + the fine side's reaction) / m_I."""
         C, rc = self.C, self.rc
-        C.A[rc] += (G - self.G0) * C.inverse_mass[rc]
+        C.A[rc] += (G - self.G0)[self.pc] * C.inverse_mass[rc]
         self.G0 = G

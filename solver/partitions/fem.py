@@ -60,7 +60,9 @@ class FemPartition(Partition):
         lo, hi = K_eff.getOwnershipRange()
         fixed = np.flatnonzero(self.fixed_dofs[:hi - lo])
         self._fixed_rows = fixed[fixed < self._solve[0].getLocalSize()]
-        if fixed.size:
+        # collective: every rank of the partition calls it when any rank has fixed DOFs
+        comm = K_eff.getComm().tompi4py()
+        if (comm.allreduce(int(fixed.size)) if comm.size > 1 else fixed.size):
             K_eff.zeroRowsColumns((lo + fixed).astype(P.IntType), diag=1.0)
         self._mats = [K_eff]
         m = self._solve[0].getLocalSize()
