@@ -3,7 +3,7 @@ solution (observed order 2) and against the GC baseline."""
 import numpy as np
 import pytest
 
-from conftest import raw_scene, run_cli, run_scene, write_scene
+from conftest import raw_scene, run_scene
 
 STEPS = [0.001, 0.002, 0.006, 0.01]       # explicit steps of Ma et al. (2018); implicit m = 3
 
@@ -41,11 +41,3 @@ def test_gc_energy_does_not_grow(tmp_path):
     total = res.energy["total"]
     assert total.max() <= total[0] * (1 + 1e-9)
     assert total[-1] < total[0]
-
-
-def test_gc_runs_on_one_rank_only(tmp_path):
-    raw = raw_scene("five_node")
-    raw["coupling"]["scheme"] = "gc"
-    raw["output"]["file"] = str(tmp_path / "o.h5")
-    proc = run_cli([write_scene(tmp_path / "s.yaml", raw)], n=2)
-    assert proc.returncode == 4 and "gc" in proc.stderr and "1 rank" in proc.stderr
