@@ -189,9 +189,7 @@ def plan(scene, mdl, size):
     gd = gd[~mdl.fixed[gd]]
     shares = [mdl]                           # rank 0 keeps the whole model (it writes fields)
     for r in range(1, size):
-        held = [dists[k].pieces[assignment.ranks[k].index(r)].held
-                for k in assignment.partitions_on(r)]
-        shares.append(mdl.share(np.concatenate(held) if held else np.zeros(0, np.int64)))
+        shares.append(mdl.share(distribute.held_on(dists, assignment, r)))
     return Plan(f, c, iface, gd, layouts, assignment, dists, freqs), shares
 
 

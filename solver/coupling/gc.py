@@ -40,8 +40,9 @@ from solver.collective import agree
 from solver.coupling.scheme import Scheme, two_sides
 from solver.coupling.subdomains import NOTE, owned_rows, place
 from solver.coupling.system_step import Clocks
-from solver.errors import RunFailed, SceneError, SolverError, StabilityError, describe
-from solver.partitions import ranks, stability
+from solver.errors import RunFailed, SolverError, StabilityError
+from solver.partitions import distribute, ranks, stability
+from solver.partitions.partitioning import build_error
 from solver.partitions.fem import FemPartition
 from solver.petscutil import init
 from solver.scene.schema import fail
@@ -152,15 +153,14 @@ class GravouilCombescure(OwnSides):
             for p in plan.assignment.partitions_on(comm.rank):
                 spec, (model, graph) = scene.partitions[p], shares[p]
                 name = spec.name
-                piece = plan.dists[p].pieces[plan.assignment.ranks[p].index(comm.rank)]
+                piece = distribute.piece_on(plan.dists, plan.assignment, p, comm.rank)
                 built[p] = FemPartition(spec, piece, model, comms[p], "literal", scene.time.dt, R,
                                         scene.damping, dist=plan.dists[p], graph=graph)
                 built[p].graph = None            # preallocation done
         except SolverError as e:
             error = e
         except Exception as e:                   # noqa: BLE001 -- PETSc errors from options
-            error = SceneError(f"partition '{name}': PETSc could not build it "
-                               f"({describe(e)}); check the -{name}_ options")
+            error = build_error(name, e)
         try:
             agree(comm, error)
             local, problems = {}, []

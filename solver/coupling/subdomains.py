@@ -101,13 +101,11 @@ def plan(scene, mdl, size: int, assignment=None):
         freqs[specs[p].name] = (fr, crit)
     shares = [({p: (model[p], graphs[p]) for p in assignment.partitions_on(0)}, mdl)]
     for r in range(1, size):
-        mine, held = {}, []
+        mine = {}
         for p in assignment.partitions_on(r):
-            nodes = dists[p].pieces[assignment.ranks[p].index(r)].held
+            nodes = distribute.piece_on(dists, assignment, p, r).held
             mine[p] = (model[p].share(nodes), graphs[p].restrict(nodes))
-            held.append(nodes)
-        shares.append((mine, mdl.share(np.concatenate(held) if held else
-                                       np.zeros(0, np.int64))))
+        shares.append((mine, mdl.share(distribute.held_on(dists, assignment, r))))
     return Plan((a, b), iface, layouts, assignment, dists, freqs), shares
 
 

@@ -112,3 +112,16 @@ def split(layout: Layout, graph, k: int, order=True) -> Distribution:
         start += piece.n_held
         pieces.append(piece)
     return Distribution(layout, tuple(pieces), number)
+
+
+def piece_on(dists, assignment, p: int, rank: int) -> Piece:
+    """Partition ``p``'s piece on world ``rank`` (``assignment``: a
+    :class:`~solver.partitions.ranks.Assignment`, ``dists`` its distributions)."""
+    return dists[p].pieces[assignment.ranks[p].index(rank)]
+
+
+def held_on(dists, assignment, rank: int) -> np.ndarray:
+    """The nodes every piece on world ``rank`` holds, concatenated (what its
+    share of the model must touch)."""
+    held = [piece_on(dists, assignment, p, rank).held for p in assignment.partitions_on(rank)]
+    return np.concatenate(held) if held else np.zeros(0, np.int64)

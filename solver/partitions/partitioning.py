@@ -67,11 +67,16 @@ def plan(scene, mdl, size, treatments, assignment=None):
     freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
     shares = [(graph, mdl)]                  # rank 0 keeps the whole model (it writes fields)
     for r in range(1, size):
-        held = [dists[p].pieces[assignment.ranks[p].index(r)].held
-                for p in assignment.partitions_on(r)]
-        held = np.concatenate(held) if held else np.zeros(0, np.int64)
+        held = distribute.held_on(dists, assignment, r)
         shares.append((graph.restrict(held), mdl.share(held)))
     return Plan(layouts, assignment, dists, freqs, problems), shares
+
+
+def build_error(name: str, e: Exception) -> SceneError:
+    """What a PETSc error while building partition ``name`` tells the user
+    (its options are the likely cause)."""
+    return SceneError(f"partition '{name}': PETSc could not build it "
+                      f"({describe(e)}); check the -{name}_ options")
 
 
 def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Partitions:
@@ -98,7 +103,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
     parts, error, name = [], None, "?"
     try:
         for p in assignment.partitions_on(rank):
-            piece = dists[p].pieces[assignment.ranks[p].index(rank)]
+            piece = distribute.piece_on(dists, assignment, p, rank)
             name = scene.partitions[p].name
             parts.append(PARTITION_TYPES[scene.partitions[p].method](
                 scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
@@ -106,8 +111,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
     except SolverError as e:
         error = e
     except Exception as e:                      # noqa: BLE001 -- PETSc errors from options
-        error = SceneError(f"partition '{name}': PETSc could not build it "
-                           f"({describe(e)}); check the -{name}_ options")
+        error = build_error(name, e)
     try:
         agree(comm, error)
         for part in parts:
