@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from solver.partitions.bond_kernel import bond_forces
+from solver.laws import CONTACT_LAWS, ContactSettings
 from solver.partitions.contact import Contact
 
 
@@ -47,7 +48,8 @@ def main(argv=None):
     rng = np.random.default_rng(1)
     rows = []
     for label, broken in (("bonds intact", 0.0), ("bonds all broken", 1.0)):
-        contact = Contact(np.arange(N), (0.5 * a, 1e7, 0.15 * a, "linear", 0.0, 0.0, 0.5), i, j)
+        settings = ContactSettings(CONTACT_LAWS["linear"](1e7), 0.5 * a, 0.15 * a, 0.0, 0.0, 0.5)
+        contact = Contact(np.arange(N), settings, i, j)
         alive = np.arange(i.size) >= broken * i.size
         out = np.zeros((N, 2))
         x = pts.copy()
@@ -67,10 +69,11 @@ def main(argv=None):
     L0 = np.linalg.norm(pts[j] - pts[i], axis=1)
     k, alive = np.full(i.size, 1e7), np.ones(i.size, bool)
     limit, snapped = np.full(i.size, np.inf), np.zeros(i.size, np.int64)
-    bond_forces(x, i, j, k, L0, alive, limit, out, N, snapped, False)     # compile
+    dX, u = pts[j] - pts[i], x - pts
+    bond_forces(dX, u, i, j, k, L0, alive, limit, out, N, snapped, False)     # compile
     s = time.perf_counter()
     for _ in range(args.steps):
-        bond_forces(x, i, j, k, L0, alive, limit, out, N, snapped, False)
+        bond_forces(dX, u, i, j, k, L0, alive, limit, out, N, snapped, False)
     t_bonds = time.perf_counter() - s
     print(f"square lattice {n} x {n} = {N} particles, {args.steps} steps")
     for label, per, share, builds in rows:

@@ -97,14 +97,13 @@ def nonlinear(n, steps, compiled=True):
     order = np.lexsort((bj, bi))              # as BondForce sorts them
     bi, bj, k, L0 = bi[order].astype(np.int64), bj[order].astype(np.int64), k[order], L0[order]
 
-    x = np.zeros_like(pts)
+    dX = pts[bj] - pts[bi]                    # rest separations (as BondForce keeps them)
 
     def force():
-        np.add(pts, U, out=x)
         if compiled:
-            bond_forces(x, bi, bj, k, L0, alive, limit, F, N, snapped, False)
+            bond_forces(dX, U, bi, bj, k, L0, alive, limit, F, N, snapped, False)
             return
-        d = x[bj] - x[bi]
+        d = dX + (U[bj] - U[bi])
         L = np.linalg.norm(d, axis=1)
         g = (k * (L - L0) / L)[:, None] * d
         for c in range(3):

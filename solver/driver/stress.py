@@ -146,15 +146,15 @@ class StressProbes:
                     dT = heat.T_node[nodes] - heat.spec.initial
                     got[name] -= heat.spec.expansion * float(np.dot(w, dT))
         for force, u, probes in self.current:
-            x = force.positions(u)                  # collective (ghost particles)
+            disp = force.displacements(u)           # collective (ghost particles)
             for name, loc, at, c, V in probes:
-                d = x[force.j[at]] - x[force.i[at]]
+                d = force.separations(disp, at)
                 L = np.linalg.norm(d, axis=1)
                 pull = np.where(force.alive[at], force.k[at] * (L - force.L0[at]) /
                                 np.where(L > 0, L, 1.0), 0.0)
                 got[name] += float(np.sum(pull * d[:, c] ** 2)) / (2 * V)
                 if force.contact is not None:
-                    got[name] += force.contact.stress(x, force.alive, loc, c) / (2 * V)
+                    got[name] += force.contact.stress(disp, force.alive, loc, c) / (2 * V)
         return got
 
     def destroy(self):

@@ -76,8 +76,8 @@ class BondForce(Force):
         self.nodes = conn
         points = stiff.points
         self.X = np.concatenate([points[held], points[ghosts]]) if ghosts.size else points[held]
-        d0 = self.X[self.j] - self.X[self.i]
-        self.L0 = np.linalg.norm(d0, axis=1)        # rest lengths (at the bond's temperature)
+        self.dX = self.X[self.j] - self.X[self.i]    # rest separations (see bond_kernel)
+        self.L0 = np.linalg.norm(self.dX, axis=1)        # rest lengths (at the bond's temperature)
         self.L_cold = self.L0.copy()                 # ... at T0
         # critical strain per bond (infinite: unbreakable)
         self.limit = np.full(len(k), np.inf if break_strain is None else break_strain)
@@ -102,14 +102,16 @@ class BondForce(Force):
         self._fi = self.i < self.n_held
         self._fj = self.j < self.n_held
         self._ri, self._rj = self.i[self._fi], self.j[self._fj]
-        self._x = np.zeros_like(self.X)            # positions of held + ghost particles
+        self._u = np.zeros_like(self.X)            # displacements of held + ghost particles
+        self._x = np.zeros_like(self.X)            # ... and their positions X + u
         self._snapped = np.zeros(len(k), dtype=np.int64)
         self.contact = None
         if contact is not None:                  # the lattice's particles, held and ghosts
             loc = lay.local(whole)
             particles = np.where(loc >= 0, loc, held.size + np.searchsorted(ghosts, whole))
             mass = node_mass[np.concatenate([held, ghosts])]
-            self.contact = Contact(particles, contact, self.i, self.j, mass, lay.n_owned)
+            self.contact = Contact(particles, contact, self.i, self.j, mass, lay.n_owned,
+                                   rest=self.X)
         if self.contact is None or not self.contact.dissipative:
             self.viscous = None                  # the partition then makes no call per step
 
@@ -118,37 +120,47 @@ class BondForce(Force):
         """The bonds (indices) that end at local node ``node``."""
         return np.flatnonzero((self.i == node) | (self.j == node))
 
-    def positions(self, u_vec):
-        """Positions X + u of the held and ghost particles (refreshing the ghosts:
+    def displacements(self, u_vec):
+        """Displacements of the held and ghost particles (refreshing the ghosts:
         collective), in a buffer the next call overwrites."""
-        x, X, n = self._x, self.X, self.n_held
-        np.add(X[:n], u_vec.getArray(readonly=True).reshape(n, self.dim), out=x[:n])
+        u, n = self._u, self.n_held
+        u[:n] = u_vec.getArray(readonly=True).reshape(n, self.dim)
         if self._ghost is not None:
             self._ghost.scatter(u_vec, self._g_vec, *self._modes)
-            np.add(X[n:], self._g_arr.reshape(-1, self.dim), out=x[n:])
-        return x
+            u[n:] = self._g_arr.reshape(-1, self.dim)
+        return u
+
+    def positions(self, u_vec):
+        """Positions X + u of the held and ghost particles (collective), in a
+        buffer the next call overwrites."""
+        return np.add(self.X, self.displacements(u_vec), out=self._x)
+
+    def separations(self, u, bonds=slice(None)):
+        """x_j - x_i of ``bonds`` at displacements ``u`` (of :meth:`displacements`),
+        as dX + (u_j - u_i): no round-off of X + u (see bond_kernel)."""
+        return self.dX[bonds] + (u[self.j[bonds]] - u[self.i[bonds]])
 
     def _bonds(self, u_vec):
-        x = self.positions(u_vec)
-        d = x[self.j] - x[self.i]
+        u = self.displacements(u_vec)
+        d = self.separations(u)
         L = np.linalg.norm(d, axis=1)
-        return x, d, L
+        return u, d, L
 
     def internal(self, u_vec, out_vec):
         """out = f_int(u); bonds beyond their critical strain break first (at
         ``now``).  The compiled loop (:mod:`solver.partitions.bond_kernel`)."""
-        x, n = self.positions(u_vec), self.n_held
+        u, n = self.displacements(u_vec), self.n_held
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
         out = out_vec.getArray().reshape(n, self.dim)
-        snapped = self._bond_forces(x, self.i, self.j, self.k, self.L0, self.alive, self.limit, out, n,
-                              self._snapped, self.operator is not None)
+        snapped = self._bond_forces(self.dX, u, self.i, self.j, self.k, self.L0, self.alive,
+                                    self.limit, out, n, self._snapped, self.operator is not None)
         if snapped:
             which = self._snapped[:snapped].copy()
-            self._break(which, x, np.linalg.norm(x[self.j[which]] - x[self.i[which]], axis=1)
+            self._break(which, u, np.linalg.norm(self.separations(u, which), axis=1)
                         - self.L0[which])
         if self.contact is not None:
-            self.contact.forces(x, self.alive, out, n)
+            self.contact.forces(u, self.alive, out, n)
 
     def viscous(self, v_vec, out_vec) -> float:
         """Add the contacts' dashpot and friction forces at velocities ``v_vec``
@@ -167,13 +179,13 @@ class BondForce(Force):
     def reference_internal(self, u_vec, out_vec):
         """The same force in numpy (gather, multiply, bincount): the reference
         the compiled loop is tested and benchmarked against."""
-        x, d, L = self._bonds(u_vec)
+        u, d, L = self._bonds(u_vec)
         stretch = L - self.L0
         if self.break_strain is not None:
             snap = self.alive & (stretch > self.limit * self.L0)
             if snap.any():
                 which = np.flatnonzero(snap)
-                self._break(which, x, stretch[which])
+                self._break(which, u, stretch[which])
         scale = np.where(self.alive, self.k * stretch / np.where(L > 0, L, 1.0), 0.0)
         f = scale[:, None] * d                                     # force on i (towards j)
         n, dim = self.n_held, self.dim
@@ -182,17 +194,19 @@ class BondForce(Force):
             out[:, c] = (np.bincount(self._ri, f[self._fi, c], minlength=n) -
                          np.bincount(self._rj, f[self._fj, c], minlength=n))
         if self.contact is not None:
-            self.contact.forces(x, self.alive, out, n)
+            self.contact.forces(u, self.alive, out, n)
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
             out_vec.getArray()[:] += out.ravel()
         else:
             out_vec.getArray()[:] = out.ravel()
 
-    def _break(self, which, x, stretch):
-        """Record bonds ``which`` as broken (their stretches L - L0: ``stretch``)."""
+    def _break(self, which, u, stretch):
+        """Record bonds ``which`` as broken at displacements ``u`` (their
+        stretches L - L0: ``stretch``)."""
         self.alive[which] = False
-        mid = 0.5 * (x[self.i[which]] + x[self.j[which]])
+        i, j = self.i[which], self.j[which]
+        mid = 0.5 * ((self.X[i] + self.X[j]) + (u[i] + u[j]))
         strain = stretch / self.L0[which]
         limit = self.limit[which]
         temp = self.T[which] if self.T is not None else np.full(which.size, np.nan)
@@ -215,8 +229,8 @@ class BondForce(Force):
         if count and spec.expansion:
             if self._shares is None:
                 self._shares = self._share()
-            work = self._rest_length_work(self.positions(self.part.u), self.i, self.j, self.k,
-                                    self.L0, L0, self.alive, self._shares)
+            work = self._rest_length_work(self.dX, self.displacements(self.part.u), self.i, self.j,
+                                          self.k, self.L0, L0, self.alive, self._shares)
         self.T, self.L0 = T, L0
         if self.break_strain is not None and spec.melting is not None:
             weak = np.clip((spec.melting - T) / (spec.melting - spec.initial), 0.0, 1.0)

@@ -17,6 +17,10 @@ A pair bonded at rest is never in contact while its bond lives; once the bond
 breaks, the two touch again only when pressed closer than 2r, so a crack
 that opens transmits nothing and a crack that closes transmits compression.
 
+Distances are taken as (X_j - X_i) + (u_j - u_i) from the rest positions X
+and the displacements u, as the bonds take theirs (see
+:mod:`solver.partitions.bond_kernel`), never from the rounded sums X + u.
+
 Candidate pairs come from a k-d tree (scipy's cKDTree) over the particles
 within 2r + skin, rebuilt only when some particle has moved more than half
 the skin since the last build; the search and its arrays exist only in
@@ -46,9 +50,11 @@ class Contact:
     particle mass (the dashpot).
     Positions below ``owned`` are this piece's own particles: only pairs with
     one of them count here, their energy and dissipation half per owned end
-    (a dem partition split over ranks sees every particle's position)."""
+    (a dem partition split over ranks sees every particle's position).
+    ``rest``: the rest positions X of the local positions; the methods then
+    take displacements u (without it, X = 0 and they take positions)."""
 
-    def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None):
+    def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None, rest=None):
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self.law = settings.law
         self.radius, self.skin = settings.radius, settings.skin
@@ -57,6 +63,7 @@ class Contact:
         n = int(max(self.nodes.max(initial=0), bonded_i.max(initial=0), bonded_j.max(initial=0))) + 1
         self._n = n
         self.mass = mass
+        self.rest = rest
         self.owned = np.iinfo(np.int64).max if owned is None else owned
         a, b = np.minimum(bonded_i, bonded_j), np.maximum(bonded_i, bonded_j)
         key = a * n + b                               # bond b's pair key (local indices)
@@ -68,9 +75,13 @@ class Contact:
         self.builds = 0
         self.energy = 0.0
 
-    def _build(self, x):
+    def _points(self, u):
+        """The positions X + u of the contact particles."""
+        pts = u[self.nodes]
+        return pts + self.rest[self.nodes] if self.rest is not None else pts
+
+    def _build(self, pts):
         from scipy.spatial import cKDTree  # lazy: scipy loads only where it is used
-        pts = x[self.nodes]
         pairs = cKDTree(pts).query_pairs(2 * self.radius + self.skin, output_type="ndarray")
         self._pairs = self.nodes[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
         # each candidate pair's bond (-1: none), found once per build
@@ -82,14 +93,17 @@ class Contact:
         self._x_built = pts.copy()
         self.builds += 1
 
-    def _touching(self, x, alive, node=None):
-        """(i, j, d = x_j - x_i, distance, overlap) of the candidate pairs (of
-        ``node`` only, if given) that overlap and share no live bond."""
+    def _touching(self, u, alive, node=None):
+        """(i, j, d = x_j - x_i, distance, overlap) at displacements ``u`` of the
+        candidate pairs (of ``node`` only, if given) that overlap and share no
+        live bond."""
         i, j = self._pairs[:, 0], self._pairs[:, 1]
         at = (i == node) | (j == node) if node is not None else \
             (i < self.owned) | (j < self.owned)
         i, j, bond = i[at], j[at], self._pair_bond[at]
-        d = x[j] - x[i]
+        d = u[j] - u[i]
+        if self.rest is not None:
+            d += self.rest[j] - self.rest[i]
         dist = np.linalg.norm(d, axis=1)
         overlap = 2 * self.radius - dist
         bonded = bond >= 0
@@ -101,21 +115,21 @@ class Contact:
         """Each pair's share here: half per owned end."""
         return 0.5 * ((i < self.owned).astype(float) + (j < self.owned).astype(float))
 
-    def stress(self, x, alive, node, c) -> float:
+    def stress(self, u, alive, node, c) -> float:
         """sum over the contacts of ``node`` of f_c r_c (its virial, sign of tension):
         a pushing contact has f = -f_n n on the particle and r = dist n."""
-        _, _, d, dist, overlap = self._touching(x, alive, node)
+        _, _, d, dist, overlap = self._touching(u, alive, node)
         f, _, _ = self.law.evaluate(overlap)
         return float(-np.sum((f / dist) * d[:, c] ** 2))
 
-    def forces(self, x, alive, out, rows):
-        """Add the contact forces at positions ``x`` to ``out`` (rows < ``rows``);
-        ``alive``: the bonds' live flags (a live bond excludes its pair)."""
-        pts = x[self.nodes]
+    def forces(self, u, alive, out, rows):
+        """Add the contact forces at displacements ``u`` to ``out`` (rows <
+        ``rows``); ``alive``: the bonds' live flags (a live bond excludes its pair)."""
+        pts = self._points(u)
         if self._x_built is None or \
                 np.max(np.linalg.norm(pts - self._x_built, axis=1), initial=0.0) > 0.5 * self.skin:
-            self._build(x)
-        i, j, d, dist, overlap = self._touching(x, alive)
+            self._build(pts)
+        i, j, d, dist, overlap = self._touching(u, alive)
         if not i.size:
             self.energy, self._last = 0.0, None
             return
