@@ -3,9 +3,13 @@
 ``on_root`` runs a step on rank 0 only (reading a file, building the whole
 model, planning) and makes its outcome collective: a SolverError it raises is
 raised on every rank, and its result is broadcast if asked.  ``agree`` raises
-on every rank the first error any rank had.
+on every rank the first error any rank had.  ``exact_sum`` adds arrays whose
+every entry is one rank's (zero on the others) with one allreduce: the sum is
+exact, the 1-rank values to the last bit.
 """
 from __future__ import annotations
+
+import numpy as np
 
 from solver.errors import SolverError
 
@@ -36,3 +40,22 @@ def agree(comm, error):
     first = next((e for e in errors if e is not None), None)
     if first is not None:
         raise first
+
+
+def exact_sum(comm, *arrays, out=None):
+    """The arrays summed over ``comm`` with one allreduce for all (every entry
+    one rank's and zero on the others: exact); a list of arrays of their shapes.
+    ``out``: with one array, the buffer that receives its sum."""
+    if comm.size == 1 and out is None:
+        return list(arrays)
+    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
+    if len(arrays) == 1 and out is not None:
+        comm.Allreduce(np.ascontiguousarray(arrays[0]), out, op=MPI.SUM)
+        return [out]
+    flat = np.concatenate([np.ravel(a) for a in arrays])
+    comm.Allreduce(MPI.IN_PLACE, flat, op=MPI.SUM)
+    result, at = [], 0
+    for a in arrays:
+        result.append(flat[at:at + np.size(a)].reshape(np.shape(a)))
+        at += np.size(a)
+    return result

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver.collective import agree, on_root
+from solver.collective import agree, exact_sum, on_root
 from solver.model.layout import Layout
 from solver.coupling.scheme import two_sides
 from solver.coupling.system_step import Clocks
@@ -326,21 +326,6 @@ class Conserving(OwnSides):
         hit = held[order][at] == gdofs
         return np.flatnonzero(hit), order[at[hit]].astype(np.int64)
 
-    def _sum(self, *arrays):
-        """Interface arrays summed over the ranks, with one allreduce for all:
-        every entry is one rank's and zero on the others, so the sum is exact
-        (the 1-rank values to the last bit)."""
-        if self.comm.size == 1:
-            return arrays
-        from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
-        flat = np.concatenate([np.ravel(a) for a in arrays])
-        self.comm.Allreduce(MPI.IN_PLACE, flat, op=MPI.SUM)
-        out, at = [], 0
-        for a in arrays:
-            out.append(flat[at:at + np.size(a)].reshape(np.shape(a)))
-            at += np.size(a)
-        return out
-
     # ---------------------------------------------------------------- set-up
     def _coarse_solve(self, forces):
         """K_eff^-1 E_I forces (the coarse side's acceleration per interface
@@ -420,7 +405,7 @@ class Conserving(OwnSides):
                 e = np.zeros(n)
                 e[k] = 1.0
                 X[self.pc, k] = self._coarse_solve(e)[self.rc]
-        self.Rbar, self.Rm, self.X_II = self._sum(Rbar, Rm, X)
+        self.Rbar, self.Rm, self.X_II = exact_sum(self.comm, Rbar, Rm, X)
         self.c_link = 2.0 * self._scene.partitions[self.c].beta * self.T ** 2
         self._buf = np.zeros(4 * n)
         self.zksp = None
@@ -484,7 +469,7 @@ class Conserving(OwnSides):
             part.initialise(self.models[part.name])
         if self.F is not None:
             self._reaction()
-        r0, = self._sum(self.r0)
+        r0, = exact_sum(self.comm, self.r0)
         self.r0 = r0
         if self.C is not None:
             self.G0 = -r0
@@ -505,7 +490,7 @@ class Conserving(OwnSides):
         uv = np.zeros((2, self.n))
         if C is not None:
             uv[:, self.pc] = C.U[self.rc], C.V[self.rc]
-        uv, = self._sum(uv)
+        uv, = exact_sum(self.comm, uv)
         if self.F is not None:
             self.F.U[self.rf], self.F.V[self.rf] = uv[:, self.pf]
             self._reaction()
@@ -526,7 +511,7 @@ class Conserving(OwnSides):
         if self.F is not None:
             r0[self.pf] = self.r0[self.pf]
             fine[:, self.pf] = self.F.state[:, self.rf]           # its own u, v, a there
-        G0, r0, fine = self._sum(G0, r0, fine)
+        G0, r0, fine = exact_sum(self.comm, G0, r0, fine)
         return {"G0": G0, "r0": r0, "fine_interface": fine}
 
     def restore_memory(self, memory: dict):

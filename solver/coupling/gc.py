@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.collective import agree
+from solver.collective import agree, exact_sum
 from solver.coupling.scheme import Scheme, two_sides
 from solver.coupling.subdomains import NOTE, owned_rows, place
 from solver.coupling.system_step import Clocks
@@ -136,7 +136,7 @@ class GravouilCombescure(OwnSides):
                 part.destroy()
             raise
         if comm.size > 1:
-            share = self._sum(comm, share)
+            share, = exact_sum(comm, share)
         X_II, m_I = share[:ni * ni].reshape(ni, ni), share[ni * ni:]
         # H = gamma h M_A^-1 + gamma dT C_B X_II (C_B = -I), replicated
         H = self._ga * np.diag(1.0 / m_I) - self._gb * X_II
@@ -204,15 +204,6 @@ class GravouilCombescure(OwnSides):
             sol.destroy()
         return X
 
-    @staticmethod
-    def _sum(comm, send, out=None):
-        """The sum over ``comm`` of ``send`` (every entry has one owner, the others
-        give 0: exact)."""
-        from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
-        out = np.zeros_like(send) if out is None else out
-        comm.Allreduce(send, out, op=MPI.SUM)
-        return out
-
     def describe(self) -> str:
         text = (f"GC baseline (Gravouil-Combescure): {self.iface.size} interface node(s) "
                 f"{self.iface.tolist()[:6]} duplicated with half mass, velocity continuity by "
@@ -241,7 +232,7 @@ class GravouilCombescure(OwnSides):
 
     def _to_fine(self):
         """The coarse interface velocities to every rank."""
-        self._sum(self.comm, self._vb_own, self._vb)
+        exact_sum(self.comm, self._vb_own, out=self._vb)
 
     def _fine(self, t0):
         A, rows, ks, m, ni = self.A, self.a_rows, self.a_ks, self.m, self.ni
@@ -256,7 +247,7 @@ class GravouilCombescure(OwnSides):
             A.accelerate()
             self._va_own[ks] = Vt[rows] + self._ga * At[rows]
             if split:
-                self._sum(A.comm, self._va_own, va)
+                exact_sum(A.comm, self._va_own, out=va)
             vB = (1 - j / m) * vB0 + (j / m) * vB_free
             self.lam[:] = self.H_inv @ (-(va - vB))
             At[rows] += self.lam[ks] / A.mass[rows]
