@@ -106,3 +106,20 @@ def test_output_says_where_it_came_from(tmp_path):
     assert sorted({l["time"] for l in labels.values() if "time" in l}) == [0.0, 2e-7, 4e-7]
     for name in fields:
         assert f"[solver]   fields: {name}" in proc.stdout
+
+
+def test_peak_memory_is_the_runs_own_not_its_parents():
+    """A run started by a large process (a sweep, a benchmark) reports its own
+    peak resident memory: Linux carries getrusage's ru_maxrss across exec, so a
+    child of a 600 MB parent read 600 MB there; VmHWM is the program's own."""
+    from solver.driver.report import peak_rss_mb
+    held = np.ones(80_000_000)                                  # 640 MB in this process
+    held[::512] = 2.0                                           # touched: resident
+    probe = ("import resource; from solver.driver.report import peak_rss_mb; "
+             "print(peak_rss_mb(), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         cwd=ROOT, timeout=60)
+    own, inherited = map(float, out.stdout.split())
+    assert peak_rss_mb() > 600
+    assert own < 300, (own, inherited)
+    del held

@@ -115,7 +115,18 @@ def broken_bonds(parts, comm):
 
 
 def peak_rss_mb() -> float:
-    """Peak resident memory of this process so far [MB]."""
+    """Peak resident memory of this process so far [MB]: VmHWM of
+    /proc/self/status, the high-water mark of this program's own memory.
+    getrusage's ru_maxrss only where /proc is missing: Linux carries it
+    across exec, so a run started by a large parent (a benchmark, a sweep:
+    subprocess vforks) reported the parent's size."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
