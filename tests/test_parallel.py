@@ -129,33 +129,35 @@ def test_wait_for_the_slower_rank_is_measured_apart(tmp_path):
     assert (wait + xch).max() <= stepping
 
 
-def test_transition_zone_on_two_and_three_ranks_matches_one(tmp_path):
+def test_transition_zone_on_two_three_and_four_ranks_matches_one(tmp_path):
     """The transition scheme (Zhang et al. 2009) with FE and DEM on different ranks, and
-    with the FE or the DEM partition split over two ranks (band particles and
-    their cells then sit on different ranks): the probe histories
-    (displacement and stress, in FE and DEM) equal the 1-rank run to 1e-12."""
+    with the FE or the DEM partition split over two ranks, or both (4 ranks:
+    band particles and their cells then sit on different ranks): the probe
+    histories (displacement and stress, in FE and DEM) equal the 1-rank run to
+    1e-12."""
     raw = raw_scene("wave_bar_transition")
     raw["time"]["end"] = 3.36e-5                 # 600 steps: the pulse is inside the DEM region
     cases = {}
-    for n, split in ((1, None), (2, None), (3, "fem"), ("3dem", "dem")):
+    runs = ((1, None), (2, None), (3, "fem"), ("3dem", "dem"), (4, "fem dem"))
+    for n, split in runs:
         raw["output"] = {"file": str(tmp_path / f"o{n}.h5"), "progress": 0}
         for part in raw["partitions"]:
             part.pop("ranks", None)
             if split is not None:
-                part["ranks"] = 2 if part["name"] == split else 1
+                part["ranks"] = 2 if part["name"] in split.split() else 1
         argv = [write_scene(tmp_path / f"s{n}.yaml", raw)]
         cases.setdefault(3 if n == "3dem" else n, []).append(argv)
     for ranks, argvs in cases.items():                 # both 3-rank runs in one launch
         proc = run_cases(argvs, tmp_path, n=ranks if ranks > 1 else None, timeout=300)
         assert proc.returncode == 0, proc.stderr
     out = {}
-    for n, split in ((1, None), (2, None), (3, "fem"), ("3dem", "dem")):
+    for n, split in runs:
         with h5py.File(tmp_path / f"o{n}.h5") as f:
             out[n] = {(p, k): f[f"probes/{p}/{k}"][()] for p in "ABC"
                       for k in ("displacement", "stress")}
-            if split is not None:
-                assert f[f"partitions/{split}"].attrs["ranks"] == 2
-    for n in (2, 3, "3dem"):
+            for name in (split or "").split():
+                assert f[f"partitions/{name}"].attrs["ranks"] == 2
+    for n in (2, 3, "3dem", 4):
         for key, ref in out[1].items():
             assert np.abs(out[n][key] - ref).max() <= 1e-12 * np.abs(ref).max(), (n, key)
     assert np.abs(out[1][("B", "stress")]).max() > 1e7       # the wave reached the DEM
