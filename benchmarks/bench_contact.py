@@ -1,6 +1,7 @@
 """Contact detection cost per particle-step (solver/partitions/contact.py).
 
     python benchmarks/bench_contact.py [--n 100] [--steps 200]
+    mpiexec -n N python benchmarks/bench_contact.py --halo    # N pieces: their halos
 
 A square lattice of n x n particles (spacing a, radius a/2) jiggles with
 random velocities of 1e-3 a per step; each step calls Contact.forces (the k-d
@@ -11,6 +12,12 @@ broken (every neighbour pair touches).  Reported: the time per particle-step
 of the contact forces (tree builds included), the share of it spent building
 trees, and the compiled bond loop's time per particle-step on the same
 lattice (diagonal bonds, intact) for scale.
+
+With ``--halo`` under mpiexec -n N the lattice is cut into N slabs, one per
+rank, and each rank builds its contact halo (solver/partitions/halo.py) at
+rest and after the jiggle: reported per rank are its particles, bond ghosts
+and halo particles (against the N - n particles an all-gather would send it)
+and the time of one halo build (boxes, alltoallv, trim).
 """
 from __future__ import annotations
 
@@ -41,7 +48,10 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=100)
     ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--halo", action="store_true", help="the halos of N slabs (under mpiexec)")
     args = ap.parse_args(argv)
+    if args.halo:
+        return halos(args.n, args.steps)
     n, a = args.n, 1e-3
     pts, i, j = lattice(n, a)
     N = len(pts)
@@ -81,6 +91,41 @@ def main(argv=None):
               f"builds, {share:.0f} % of the time)")
     print(f"  compiled bond loop ({i.size} bonds): "
           f"{1e9 * t_bonds / (N * args.steps):.1f} ns per particle-step")
+
+
+def halos(n, steps):
+    """The halo of each slab of an n x n lattice, one slab per rank."""
+    from mpi4py import MPI
+    from solver.partitions.halo import ContactHalo
+    comm = MPI.COMM_WORLD
+    a = 1e-3
+    pts, i, j = lattice(n, a)
+    slab = np.arange(n * n) // n * comm.size // n          # particles are numbered by column
+    own = np.flatnonzero(slab == comm.rank)
+    mine_i, mine_j = slab[i] == comm.rank, slab[j] == comm.rank
+    ghosts = np.unique(np.concatenate([j[mine_i & ~mine_j], i[mine_j & ~mine_i]]))
+    settings = ContactSettings(CONTACT_LAWS["linear"](1e7), 0.5 * a, 0.15 * a, 0.0, 0.0, 0.5)
+    reach = 2 * settings.radius + settings.skin
+    local = np.arange(own.size)
+    halo = ContactHalo(comm, reach, local, local, own, own, pts[own], np.ones(own.size), ghosts)
+    rng = np.random.default_rng(comm.rank)
+    x = pts[own].copy()
+    rows = []
+    for label in ("at rest", f"after {steps} jiggled steps"):
+        comm.Barrier()
+        t0 = time.perf_counter()
+        ids = halo.select(x)[0]
+        t = time.perf_counter() - t0
+        rows.append((label, ids.size, t))
+        x += 1e-3 * a * rng.standard_normal((steps, *x.shape)).sum(axis=0)
+    table = comm.gather((own.size, ghosts.size, rows), root=0)
+    if comm.rank == 0:
+        print(f"square lattice {n} x {n} = {n * n} particles in {comm.size} slabs, "
+              f"reach 2r + skin = {reach / a:g} a")
+        for r, (n_own, n_ghost, rows) in enumerate(table):
+            line = ", ".join(f"{label}: halo {size} ({1e3 * t:.2f} ms)" for label, size, t in rows)
+            print(f"  rank {r}: {n_own} particles, {n_ghost} bond ghosts, {line}; an all-gather: "
+                  f"{n * n - n_own}")
 
 
 if __name__ == "__main__":
