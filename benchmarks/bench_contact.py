@@ -1,7 +1,7 @@
 """Contact detection cost per particle-step (solver/partitions/contact.py).
 
     python benchmarks/bench_contact.py [--n 100] [--steps 200]
-    mpiexec -n N python benchmarks/bench_contact.py --halo    # N pieces: their halos
+    mpiexec -n N python benchmarks/bench_contact.py --halo [--radius 0.5]   # N slabs' halos
 
 A square lattice of n x n particles (spacing a, radius a/2) jiggles with
 random velocities of 1e-3 a per step; each step calls Contact.forces (the k-d
@@ -15,9 +15,12 @@ lattice (diagonal bonds, intact) for scale.
 
 With ``--halo`` under mpiexec -n N the lattice is cut into N slabs, one per
 rank, and each rank builds its contact halo (solver/partitions/halo.py) at
-rest and after the jiggle: reported per rank are its particles, bond ghosts
-and halo particles (against the N - n particles an all-gather would send it)
-and the time of one halo build (boxes, alltoallv, trim).
+rest and after the jiggle, with particles of radius ``--radius`` spacings
+(default 0.5: bonded neighbours just touch, and at rest every particle
+within 2r + skin is a bond ghost already): reported per rank are its
+particles, bond ghosts and halo particles (against the N - n particles an
+all-gather would send it) and the time of one halo build (boxes, alltoallv,
+trim; scipy imported before).
 """
 from __future__ import annotations
 
@@ -49,9 +52,10 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=100)
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--halo", action="store_true", help="the halos of N slabs (under mpiexec)")
+    ap.add_argument("--radius", type=float, default=0.5, help="--halo: radius [spacings]")
     args = ap.parse_args(argv)
     if args.halo:
-        return halos(args.n, args.steps)
+        return halos(args.n, args.steps, args.radius)
     n, a = args.n, 1e-3
     pts, i, j = lattice(n, a)
     N = len(pts)
@@ -93,9 +97,11 @@ def main(argv=None):
           f"{1e9 * t_bonds / (N * args.steps):.1f} ns per particle-step")
 
 
-def halos(n, steps):
-    """The halo of each slab of an n x n lattice, one slab per rank."""
+def halos(n, steps, radius):
+    """The halo of each slab of an n x n lattice, one slab per rank, with
+    particles of ``radius`` spacings."""
     from mpi4py import MPI
+    import scipy.spatial  # noqa: F401 -- imported before the halo builds are timed
     from solver.partitions.halo import ContactHalo
     comm = MPI.COMM_WORLD
     a = 1e-3
@@ -104,8 +110,7 @@ def halos(n, steps):
     own = np.flatnonzero(slab == comm.rank)
     mine_i, mine_j = slab[i] == comm.rank, slab[j] == comm.rank
     ghosts = np.unique(np.concatenate([j[mine_i & ~mine_j], i[mine_j & ~mine_i]]))
-    settings = ContactSettings(CONTACT_LAWS["linear"](1e7), 0.5 * a, 0.15 * a, 0.0, 0.0, 0.5)
-    reach = 2 * settings.radius + settings.skin
+    reach = (2 + 0.3) * radius * a                         # 2r + the default skin 0.3 r
     local = np.arange(own.size)
     halo = ContactHalo(comm, reach, local, local, own, own, pts[own], np.ones(own.size), ghosts)
     rng = np.random.default_rng(comm.rank)
