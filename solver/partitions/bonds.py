@@ -126,7 +126,7 @@ class BondForce(Force):
             mine = particles[particles < held.size]
             self.halo = ContactHalo(part.comm, self.contact.reach, mine[mine < lay.n_owned],
                                     mine, held[mine], lay.start + mine, self.X[mine], mass[mine],
-                                    self.ids[held.size:])
+                                    self.ids)
             self._rehalo(part.u)
 
     def _scatter(self, numbers):

@@ -44,8 +44,10 @@ class ContactHalo:
     ``provided``: local indices of the contact particles it holds (owned and
     external), which it offers the other pieces, with their global ids
     ``ids``, partition numbers ``number``, rest positions ``rest`` [n, dim]
-    and masses ``mass``; ``known``: global ids the piece has already (its
-    bond ghosts), never sent twice."""
+    and masses ``mass``; ``known``: global ids the piece has already (the
+    particles it holds and its bond ghosts): never taken twice.  An
+    external particle (another partition's, copied by the exchange) may be
+    held by several pieces and so arrive from several: it is kept once."""
 
     def __init__(self, comm, reach, owned, provided, ids, number, rest, mass, known):
         self.comm = comm
@@ -111,8 +113,9 @@ class ContactHalo:
         dist, _ = cKDTree(mine).query(rows[:, 3 + self.dim:], distance_upper_bound=grow)
         ids = rows[:, 0].astype(np.int64)
         keep = np.isfinite(dist) & ~np.isin(ids, self.known)
-        rows = rows[keep]
-        return rows[np.argsort(rows[:, 0], kind="stable")]
+        rows, ids = rows[keep], ids[keep]
+        _, first = np.unique(ids, return_index=True)   # by id, each once
+        return rows[first]
 
 
 def _starts(counts) -> list:
