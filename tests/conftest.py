@@ -136,3 +136,22 @@ def built(raw, tmp_path):
     init([])
     raw = dict(raw, output={"file": str(tmp_path / "b.h5")})
     return build(binding.bind(scene_mod.from_dict(raw)), MPI.COMM_SELF)
+
+
+def mpi_pytest(path: str, n: int, tmp_path: Path, timeout=300) -> list[dict]:
+    """pytest on the test file ``path`` under ``mpiexec -n N``: asserts the
+    launch succeeded; returns each rank's counts (tests, failures, errors,
+    skipped) from its JUnit report."""
+    import xml.etree.ElementTree as ET
+    report = tmp_path / "junit-{rank}.xml"
+    proc = subprocess.run([mpiexec(), "-n", str(n), sys.executable, "-c",
+                           "import sys, pytest; from mpi4py import MPI; sys.exit(pytest.main("
+                           f"['-q', '-p', 'no:cacheprovider', '{path}', '--junitxml', "
+                           f"'{report}'.format(rank=MPI.COMM_WORLD.rank)]))"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    counts = []
+    for rank in range(n):
+        suite = ET.parse(str(report).format(rank=rank)).getroot().find("testsuite")
+        counts.append({k: int(suite.get(k)) for k in ("tests", "failures", "errors", "skipped")})
+    return counts

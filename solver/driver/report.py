@@ -59,7 +59,8 @@ class Report:
                 if name in part_attrs:
                     merged = part_attrs[name]
                     merged["ranks"] += 1
-                    for key in ("n_owned", "n_external", "bonds_broken", "released_energy"):
+                    for key in ("n_owned", "n_external", "bonds_broken", "released_energy",
+                                "contact_pairs", "halo_particles"):
                         if key in merged:
                             merged[key] += attrs[key]
                     merged["boundary"] = np.sort(np.concatenate([merged["boundary"],
@@ -91,11 +92,17 @@ class Report:
 
 
 def bond_attrs(part) -> dict:
-    """Breakable bonds of a piece: how many broke, the energy they released."""
+    """Breakable bonds of a piece: how many broke, the energy they released;
+    with contact, the pairs in contact at the end (each counted by one
+    piece), the k-d tree builds and the particles of the piece's halo."""
     force = part.force
     if not force.bonded:
         return {}
-    return {"bonds_broken": len(force.broken), "released_energy": force.released}
+    out = {"bonds_broken": len(force.broken), "released_energy": force.released}
+    if force.contact is not None:
+        out.update(contact_pairs=len(force.contact_pairs()), contact_builds=force.contact.builds,
+                   halo_particles=force.n_halo)
+    return out
 
 
 def broken_bonds(parts, comm):

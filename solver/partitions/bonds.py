@@ -20,9 +20,12 @@ change counts as thermal work (the energy audit's external work includes it).
 Elements that are not lattice bonds (overlap cells, bonds carried to a
 transition band's nodes) stay linear: one MatMult with their operator.
 Particles of another piece of the same partition (the partition split over
-ranks) are ghosts, refreshed by one VecScatter per force evaluation.  All
-pieces that hold a bond evaluate it from the same positions, so they agree
-on when it breaks.  Numpy on arrays of bonds: no per-bond Python loop.
+ranks) are ghosts, refreshed by one VecScatter per force evaluation: the
+other ends of this piece's bonds and, with contact, its halo
+(:mod:`solver.partitions.halo`), the particles near its own ones, which
+changes when the contact search is rebuilt.  All pieces that hold a bond
+evaluate it from the same positions, so they agree on when it breaks.  Numpy
+on arrays of bonds: no per-bond Python loop.
 """
 from __future__ import annotations
 
@@ -31,6 +34,7 @@ import numpy as np
 from solver.petscutil import init, vec_on
 from solver.partitions.contact import Contact
 from solver.partitions.force import Force
+from solver.partitions.halo import ContactHalo
 
 
 class BondForce(Force):
@@ -55,7 +59,7 @@ class BondForce(Force):
         conn, stiff = lattice_block
         lay = part.layout
         held = lay.held
-        whole = np.unique(conn)              # every lattice particle of the partition
+        whole = np.unique(conn)              # the lattice particles this share of the model has
         # bonds with at least one owned end: this piece's rows
         local = lay.local(conn.ravel()).reshape(conn.shape)
         mine = ((local >= 0) & (local < lay.n_owned)).any(axis=1)
@@ -65,9 +69,6 @@ class BondForce(Force):
         order = np.lexsort((ghost_last[:, 1], ghost_last[:, 0]))
         conn, k, local = conn[order], k[order], local[order]
         ghosts = np.unique(conn[local < 0])                  # another piece's particles
-        if contact is not None and part.comm.size > 1:
-            # an owned particle may touch any other: every particle of the partition is seen
-            ghosts = np.union1d(ghosts, whole[lay.local(whole) < 0])
         at = np.searchsorted(ghosts, conn)
         local = np.where(local < 0, held.size + at, local)  # ghosts after the held nodes
         self.i, self.j = local[:, 0], local[:, 1]
@@ -76,6 +77,7 @@ class BondForce(Force):
         self.nodes = conn
         points = stiff.points
         self.X = np.concatenate([points[held], points[ghosts]]) if ghosts.size else points[held]
+        self.ids = np.concatenate([held, ghosts])     # global id of every local position
         self.dX = self.X[self.j] - self.X[self.i]    # rest separations (see bond_kernel)
         self.L0 = np.linalg.norm(self.dX, axis=1)        # rest lengths (at the bond's temperature)
         self.L_cold = self.L0.copy()                 # ... at T0
@@ -90,14 +92,11 @@ class BondForce(Force):
         self.released = 0.0                  # energy of the broken bonds [J]
         self.now = 0.0
         self._ghost = self._gv = None
+        self._modes = (P.InsertMode.INSERT_VALUES, P.ScatterMode.FORWARD)
+        self._bond_ghosts = part.dist.number[ghosts]     # their partition numbers
+        self._n_bonded = held.size + ghosts.size         # local positions before the halo
         if part.comm.size > 1 or ghosts.size:
-            number = part.dist.number[ghosts]
-            idx = (number[:, None] * dim + np.arange(dim)).ravel().astype(P.IntType)
-            self._g_arr = np.zeros(idx.size)
-            self._g_vec = vec_on(self._g_arr, P.COMM_SELF)
-            self._is = P.IS().createGeneral(idx, comm=P.COMM_SELF)
-            self._ghost = P.Scatter().create(part.u, self._is, self._g_vec, None)
-            self._modes = (P.InsertMode.INSERT_VALUES, P.ScatterMode.FORWARD)
+            self._scatter(self._bond_ghosts)
         # each bond's rows kept here: only held rows (ghost rows belong to other pieces)
         self._fi = self.i < self.n_held
         self._fj = self.j < self.n_held
@@ -105,15 +104,91 @@ class BondForce(Force):
         self._u = np.zeros_like(self.X)            # displacements of held + ghost particles
         self._x = np.zeros_like(self.X)            # ... and their positions X + u
         self._snapped = np.zeros(len(k), dtype=np.int64)
-        self.contact = None
-        if contact is not None:                  # the lattice's particles, held and ghosts
-            loc = lay.local(whole)
-            particles = np.where(loc >= 0, loc, held.size + np.searchsorted(ghosts, whole))
-            mass = node_mass[np.concatenate([held, ghosts])]
-            self.contact = Contact(particles, contact, self.i, self.j, mass, lay.n_owned,
-                                   rest=self.X)
+        self.contact = self.halo = None
+        if contact is not None:
+            self._start_contact(contact, part, whole, node_mass)
         if self.contact is None or not self.contact.dissipative:
             self.viscous = None                  # the partition then makes no call per step
+
+    def _start_contact(self, settings, part, whole, node_mass):
+        """Contact of the lattice particles this piece holds and of its bond
+        ghosts; split over ranks, also of its halo, built here at the
+        current displacements (collective)."""
+        lay, held = part.layout, part.layout.held
+        loc = lay.local(whole)
+        particles = np.concatenate([loc[loc >= 0], held.size + np.arange(self.n_ghosts)])
+        mass = node_mass[self.ids]
+        split = part.comm.size > 1
+        self._bonded_contact = (particles, mass)
+        self.contact = Contact(particles, settings, self.i, self.j, mass, lay.n_owned,
+                               rest=self.X, decides=not split)
+        if split:
+            mine = particles[particles < held.size]
+            self.halo = ContactHalo(part.comm, self.contact.reach, mine[mine < lay.n_owned],
+                                    mine, held[mine], lay.start + mine, self.X[mine], mass[mine],
+                                    self.ids)
+            self._rehalo(part.u)
+
+    def _scatter(self, numbers):
+        """The ghost scatter of the particles of partition numbers ``numbers``
+        (collective: every piece of the partition creates its own at once)."""
+        P, dim = init(), self.dim
+        if self._ghost is not None:
+            for obj in (self._ghost, self._is, self._g_vec, *(self._gv or ())[1:]):
+                obj.destroy()
+            self._gv = None
+        idx = (numbers[:, None] * dim + np.arange(dim)).ravel().astype(P.IntType)
+        self._g_arr = np.zeros(idx.size)
+        self._g_vec = vec_on(self._g_arr, P.COMM_SELF)
+        self._is = P.IS().createGeneral(idx, comm=P.COMM_SELF)
+        self._ghost = P.Scatter().create(self.part.u, self._is, self._g_vec, None)
+
+    def _rehalo(self, u_vec, u=None):
+        """Collective: the halo at displacements ``u_vec`` (``u``: their local
+        values, if known), its ghost scatter and the contact search with it;
+        returns the new local displacements."""
+        n, n0 = self.n_held, self._n_bonded
+        if u is None:
+            u = self.displacements(u_vec)
+        ids, numbers, rest, mass = self.halo.select(self.X[:n] + u[:n])
+        self._scatter(np.concatenate([self._bond_ghosts, numbers]))
+        self.X = np.concatenate([self.X[:n0], rest])
+        self.ids = np.concatenate([self.ids[:n0], ids])
+        self._u, self._x = np.zeros_like(self.X), np.zeros_like(self.X)
+        particles, bonded_mass = self._bonded_contact
+        self.contact.renew(np.concatenate([particles, n0 + np.arange(ids.size)]),
+                           np.concatenate([bonded_mass, mass]), self.X)
+        u = self.displacements(u_vec)
+        self.contact.build(u)
+        return u
+
+    def _add_contact(self, u_vec, u, out):
+        """Add the contact forces at displacements ``u_vec`` (``u``: their local
+        values) to ``out``; split over ranks, the halo first follows a
+        rebuild of the search (collective)."""
+        if self.halo is not None and self.halo.stale(self.contact.stale(u)):
+            u = self._rehalo(u_vec, u)
+        self.contact.forces(u, self.alive, out, self.n_held)
+
+    @property
+    def n_halo(self) -> int:
+        """Particles of the halo (0 unless contact on a partition split over ranks)."""
+        return self.ids.size - self._n_bonded
+
+    def contact_pairs(self):
+        """The global ids (i < j) of the pairs in contact at the last force
+        evaluation that this piece counts: those whose end of smaller id is
+        owned here, or owned by no piece of the partition and the other end
+        is owned here (summed over the pieces: each pair once)."""
+        i, j = self.contact.touching()
+        gi, gj = self.ids[i], self.ids[j]
+        swap = gi > gj
+        a, b = np.where(swap, gj, gi), np.where(swap, gi, gj)
+        owned = self.part.layout.n_owned
+        a_here, b_here = np.where(swap, j, i) < owned, np.where(swap, i, j) < owned
+        a_owned = np.isin(a, self.part.dist.layout.owned)
+        counted = a_here | (~a_owned & b_here)
+        return np.stack([a[counted], b[counted]], axis=1)
 
     # ---------------------------------------------------------------- state
     def bonds_at(self, node) -> np.ndarray:
@@ -160,7 +235,7 @@ class BondForce(Force):
             self._break(which, u, np.linalg.norm(self.separations(u, which), axis=1)
                         - self.L0[which])
         if self.contact is not None:
-            self.contact.forces(u, self.alive, out, n)
+            self._add_contact(u_vec, u, out)
 
     def viscous(self, v_vec, out_vec) -> float:
         """Add the contacts' dashpot and friction forces at velocities ``v_vec``
@@ -194,7 +269,7 @@ class BondForce(Force):
             out[:, c] = (np.bincount(self._ri, f[self._fi, c], minlength=n) -
                          np.bincount(self._rj, f[self._fj, c], minlength=n))
         if self.contact is not None:
-            self.contact.forces(u, self.alive, out, n)
+            self._add_contact(u_vec, u, out)
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
             out_vec.getArray()[:] += out.ravel()

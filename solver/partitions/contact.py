@@ -24,14 +24,21 @@ and the displacements u, as the bonds take theirs (see
 Candidate pairs come from a k-d tree (scipy's cKDTree) over the particles
 within 2r + skin, rebuilt only when some particle has moved more than half
 the skin since the last build; the search and its arrays exist only in
-scenes with ``model.lattice.contact``.  The stable step accounts for contact
-springs with a bound: lambda_max(K_bonds + K_contact) <= lambda_bonds +
-2 z k / m_min, z the largest coordination of equal spheres (6 in 2D, 12 in
-3D), k the law's bound (hertz: its tangent at an overlap of 0.1 r).
+scenes with ``model.lattice.contact``.  On a dem partition split over ranks
+the decision to rebuild is taken for all pieces at once, and each piece's
+particles then change with its halo (:mod:`solver.partitions.halo`).
+
+The stable step accounts for contact springs with a bound:
+lambda_max(K_bonds + K_contact) <= lambda_bonds + 2 z k / m_min, z the
+largest coordination of equal spheres (6 in 2D, 12 in 3D), k the law's
+bound (hertz: its tangent at an overlap of 0.1 r).
 """
 from __future__ import annotations
 
 import numpy as np
+
+# pair keys i * KEY + j of local indices: larger than any piece's position count
+KEY = np.int64(1) << 31
 
 
 def coordination(dim: int) -> int:
@@ -50,23 +57,26 @@ class Contact:
     particle mass (the dashpot).
     Positions below ``owned`` are this piece's own particles: only pairs with
     one of them count here, their energy and dissipation half per owned end
-    (a dem partition split over ranks sees every particle's position).
+    (on a dem partition split over ranks the others are bond ghosts and the
+    halo: :mod:`solver.partitions.halo`).
     ``rest``: the rest positions X of the local positions; the methods then
-    take displacements u (without it, X = 0 and they take positions)."""
+    take displacements u (without it, X = 0 and they take positions).
+    ``decides``: :meth:`forces` rebuilds the tree itself when it is stale
+    (False: the caller does, for all pieces at once)."""
 
-    def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None, rest=None):
+    def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None, rest=None,
+                 decides=True):
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self.law = settings.law
         self.radius, self.skin = settings.radius, settings.skin
         self.zeta, self.mu = settings.damping_ratio, settings.friction
         self.zeta_t = settings.tangential_damping_ratio
-        n = int(max(self.nodes.max(initial=0), bonded_i.max(initial=0), bonded_j.max(initial=0))) + 1
-        self._n = n
         self.mass = mass
         self.rest = rest
+        self.decides = decides
         self.owned = np.iinfo(np.int64).max if owned is None else owned
         a, b = np.minimum(bonded_i, bonded_j), np.maximum(bonded_i, bonded_j)
-        key = a * n + b                               # bond b's pair key (local indices)
+        key = a * KEY + b                             # bond b's pair key (local indices)
         self._key_order = np.argsort(key, kind="stable")
         self._sorted_keys = key[self._key_order]
         self._x_built = None
@@ -75,18 +85,43 @@ class Contact:
         self.builds = 0
         self.energy = 0.0
 
+    @property
+    def reach(self) -> float:
+        """2r + skin: the distance within which a pair is a candidate."""
+        return 2 * self.radius + self.skin
+
     def _points(self, u):
         """The positions X + u of the contact particles."""
         pts = u[self.nodes]
         return pts + self.rest[self.nodes] if self.rest is not None else pts
 
+    def stale(self, u) -> bool:
+        """Whether the tree must be rebuilt at displacements ``u``: never built,
+        or a particle has moved more than half the skin since."""
+        if self._x_built is None:
+            return True
+        moved = np.max(np.linalg.norm(self._points(u) - self._x_built, axis=1), initial=0.0)
+        return bool(moved > 0.5 * self.skin)
+
+    def renew(self, nodes, mass, rest):
+        """New contact particles ``nodes`` (local indices) with the masses and
+        rest positions of every local position (a piece's halo changed); the
+        tree is then built by :meth:`build`."""
+        self.nodes = np.asarray(nodes, dtype=np.int64)
+        self.mass, self.rest = mass, rest
+        self._x_built = None
+
+    def build(self, u):
+        """The candidate pairs at displacements ``u``."""
+        self._build(self._points(u))
+
     def _build(self, pts):
         from scipy.spatial import cKDTree  # lazy: scipy loads only where it is used
-        pairs = cKDTree(pts).query_pairs(2 * self.radius + self.skin, output_type="ndarray")
+        pairs = cKDTree(pts).query_pairs(self.reach, output_type="ndarray")
         self._pairs = self.nodes[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
         # each candidate pair's bond (-1: none), found once per build
         i, j = self._pairs[:, 0], self._pairs[:, 1]
-        key = np.minimum(i, j) * self._n + np.maximum(i, j)
+        key = np.minimum(i, j) * KEY + np.maximum(i, j)
         at = np.minimum(np.searchsorted(self._sorted_keys, key), max(len(self._sorted_keys) - 1, 0))
         found = self._sorted_keys[at] == key if len(self._sorted_keys) else np.zeros(len(key), bool)
         self._pair_bond = np.where(found, self._key_order[at] if len(self._key_order) else -1, -1)
@@ -125,10 +160,8 @@ class Contact:
     def forces(self, u, alive, out, rows):
         """Add the contact forces at displacements ``u`` to ``out`` (rows <
         ``rows``); ``alive``: the bonds' live flags (a live bond excludes its pair)."""
-        pts = self._points(u)
-        if self._x_built is None or \
-                np.max(np.linalg.norm(pts - self._x_built, axis=1), initial=0.0) > 0.5 * self.skin:
-            self._build(pts)
+        if self.decides and self.stale(u):
+            self.build(u)
         i, j, d, dist, overlap = self._touching(u, alive)
         if not i.size:
             self.energy, self._last = 0.0, None
@@ -138,6 +171,12 @@ class Contact:
         unit = d / dist[:, None]
         self._last = (i, j, unit, k, f)
         _scatter(out, rows, i, j, f[:, None] * unit)
+
+    def touching(self):
+        """(i, j) local indices of the pairs in contact at the last :meth:`forces`."""
+        if self._last is None:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return self._last[0], self._last[1]
 
     @property
     def dissipative(self) -> bool:

@@ -71,6 +71,9 @@ class DemPartition(Partition):
                        f"stiffness {law.stiffness:g} {law.unit}{dash}, k-d tree with skin "
                        f"{contact.skin:g} m)")
         ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
+        if force.halo is not None:
+            ghosts += (f", contact halo {force.n_halo} particles (those within 2r + skin of "
+                       "its own, renewed with the k-d tree)")
         self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
                           f"{strain}{ghosts}")
         return force
