@@ -123,25 +123,14 @@ class ContinuumArrays:
             self._cell_blocks(lat.carried, held)
 
     def graph(self) -> Graph:
-        """Adjacent nodes of every node (through cells or bonds).  Edge keys
-        a * n + b are made and reduced in chunks of cells, so the temporaries
-        stay small on large meshes."""
-        n = np.int64(self.n_nodes)
-        keys = []
+        """Adjacent nodes of every node, through the body's cells, the carried
+        cells and the lattice bonds (:meth:`Graph.from_cells`: the pattern of
+        C^T C, no edge keys)."""
         lat = self.lattice
-        for _, conn, _ in list(self.cells) + list(lat.carried if lat is not None else ()):
-            k = conn.shape[1]
-            off = ~np.eye(k, dtype=bool)
-            for s in range(0, len(conn), 32768):
-                c = conn[s:s + 32768].astype(np.int64)
-                pair = (c[:, :, None], c[:, None, :])
-                key = (pair[0] * n + pair[1])[:, off]
-                keys.append(np.unique(key[(pair[0] != pair[1])[:, off]]))  # carried bonds repeat nodes
+        conns = [conn for _, conn, _ in list(self.cells) + list(lat.carried if lat is not None else ())]
         if lat is not None and lat.bonds:
-            bi, bj, _ = lat.bonds
-            keys.append(np.concatenate([bi * n + bj, bj * n + bi]))
-        key = np.unique(np.concatenate(keys)) if keys else np.zeros(0, dtype=np.int64)
-        return Graph.from_keys(self.n_nodes, key)
+            conns.append(np.stack(lat.bonds[:2], axis=1))
+        return Graph.from_cells(self.n_nodes, conns)
 
 
 class BondStiffness:
