@@ -160,7 +160,7 @@ def rank0_breakdown(a, T, size) -> list[str]:
     rows.append((f"shares of ranks 1..{size - 1} (graph rows, cells, bonds)",
                  sum(footprint(s, seen) for s in shares[1:]), rss_mb()))
     sent = sum(len(pickle.dumps(s, protocol=pickle.HIGHEST_PROTOCOL)) for s in shares[1:])
-    rows.append((f"shares of ranks 1..{size - 1}, pickled to scatter", sent, rss_mb()))
+    rows.append((f"shares of ranks 1..{size - 1}, pickled (sent one at a time)", sent, rss_mb()))
     lines = [f"Rank 0's set-up for {size} ranks, replayed stage by stage in one process "
              f"({n:,} nodes): the arrays each stage holds (numpy arrays reachable from its "
              "objects), the resident memory once it is done and the peak so far.", "",
