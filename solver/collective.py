@@ -2,7 +2,8 @@
 
 ``on_root`` runs a step on rank 0 only (reading a file, building the whole
 model, planning) and makes its outcome collective: a SolverError it raises is
-raised on every rank, and its result is broadcast if asked.  ``agree`` raises
+raised on every rank, and its result is broadcast if asked.  ``scatter_each``
+sends every rank its share of rank 0's plan, one at a time.  ``agree`` raises
 on every rank the first error any rank had.  ``exact_sum`` adds arrays whose
 every entry is one rank's (zero on the others) with one allreduce: the sum is
 exact, the 1-rank values to the last bit.
@@ -32,6 +33,22 @@ def on_root(comm, fn, *args, share: bool = True):
     if error is not None:
         raise error
     return result
+
+
+def scatter_each(comm, items):
+    """Collective: ``items[r]`` (a list on rank 0, one item per rank) to rank r,
+    one message at a time, each dropped from the list once sent, so that rank 0
+    holds one pickled item at a time (``comm.scatter`` pickles them all at once:
+    1.8 GB of rank 0's peak for the 2.27 M-DOF bar's shares on 4 ranks)."""
+    if comm.rank != 0:
+        return comm.recv(source=0, tag=SCATTER_TAG)
+    for r in range(1, comm.size):
+        comm.send(items[r], dest=r, tag=SCATTER_TAG)
+        items[r] = None
+    return items[0]
+
+
+SCATTER_TAG = 2301                          # scatter_each's messages
 
 
 def agree(comm, error):

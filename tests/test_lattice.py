@@ -73,3 +73,23 @@ def test_uniaxial_cubic_lattice_recovers_E_and_nu():
     assert lat.mass.sum() == pytest.approx(rho * L * H * W, rel=1e-12)
     with pytest.raises(ValueError, match="simple cubic lattice with face-diagonal bonds represents nu = 0.25"):
         cubic((0, 0, 0), (3, 3, 3), a, E, 0.33, rho)
+
+
+def test_overlap_cells_are_found_by_their_corners_in_any_order():
+    """continuum.same_corners against a set of sorted corner tuples (what
+    attach_lattice used before): random cells, wanted rows given reversed,
+    absent rows, repeated rows, and cells of another width (never a match)."""
+    from solver.model.continuum import same_corners
+    rng = np.random.default_rng(3)
+    hits = 0
+    for _ in range(20):
+        conn = rng.integers(0, 30, (200, 4))
+        wanted = np.sort(np.concatenate([conn[rng.choice(200, 20, replace=False)][:, ::-1],
+                                         rng.integers(0, 30, (10, 4))]), axis=1)
+        sets = {tuple(sorted(c)) for c in wanted.tolist()}
+        ref = np.array([tuple(sorted(c)) in sets for c in conn.tolist()])
+        assert np.array_equal(same_corners(conn, wanted), ref)
+        hits += int(ref.sum())
+    assert hits >= 20 * 20                       # every trial matched its 20 picked cells
+    assert not same_corners(conn[:, :3], wanted).any()
+    assert not same_corners(conn, wanted[:0]).any()

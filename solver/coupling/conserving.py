@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver.collective import agree, exact_sum, on_root
+from solver.collective import agree, exact_sum, on_root, scatter_each
 from solver.model.layout import Layout
 from solver.coupling.scheme import two_sides
 from solver.coupling.system_step import Clocks
@@ -249,7 +249,7 @@ class Conserving(OwnSides):
         decided, shares = on_root(comm, plan, scene, mdl, comm.size, share=False) or (None, None)
         if comm.size > 1:
             decided = comm.bcast(decided)
-            mdl = comm.scatter(shares)
+            mdl = scatter_each(comm, shares)
         else:
             mdl, = shares
         del shares

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver.collective import on_root
+from solver.collective import on_root, scatter_each
 from solver.errors import StabilityError
 from solver.model.layout import Layout
 from solver.partitions import distribute, integrators, ranks, stability
@@ -116,7 +116,7 @@ def place(scene, mdl, comm, assignment=None):
                               share=False) or (None, None)
     if comm.size > 1:
         decided = comm.bcast(decided)
-        mine, kept = comm.scatter(shares)
+        mine, kept = scatter_each(comm, shares)
     else:
         (mine, kept), = shares
     return decided, mine, kept

@@ -21,21 +21,40 @@ class Graph(NamedTuple):
     indices: np.ndarray
 
     @classmethod
-    def from_keys(cls, n_nodes: int, keys: np.ndarray) -> "Graph":
-        """From sorted unique edge keys ``a * n_nodes + b`` (both directions)."""
-        n = np.int64(n_nodes)
-        a, b = keys // n, keys % n
-        indptr = np.searchsorted(a, np.arange(n_nodes + 1)).astype(np.int64)
-        return cls(indptr, b.astype(np.int64))
+    def from_cells(cls, n_nodes: int, conns) -> "Graph":
+        """Nodes that share a cell of any of ``conns`` ([m, k] node arrays, one per
+        cell family; a bond or spring is a 2-node cell; a cell may repeat a node):
+        the pattern of C^T C, C the cell-node incidence matrix, less its diagonal.
+        One sparse product (a few bytes per nonzero), no edge keys to sort."""
+        from scipy.sparse import csr_matrix  # lazy: scipy loads only where it is used
+        conns = [c.reshape(len(c), -1) for c in map(np.asarray, conns) if c.size]
+        if not conns:
+            return cls(np.zeros(n_nodes + 1, np.int64), np.zeros(0, np.int64))
+        itype = np.int32 if max(n_nodes, sum(c.size for c in conns)) < 2 ** 31 else np.int64
+        col = np.concatenate([c.ravel() for c in conns]).astype(itype, copy=False)
+        width = np.concatenate([np.full(len(c), c.shape[1], dtype=itype) for c in conns])
+        ptr = np.zeros(width.size + 1, dtype=itype)
+        np.cumsum(width, out=ptr[1:])
+        C = csr_matrix((np.ones(col.size, bool), col, ptr), shape=(width.size, n_nodes))
+        del col, width, ptr
+        A = (C.T.tocsr() @ C).tocsr()
+        del C
+        A.sort_indices()
+        ptr, col = A.indptr, A.indices
+        del A                                     # its values: only the pattern counts
+        deg = np.diff(ptr).astype(np.int64)
+        off = col != np.repeat(np.arange(n_nodes, dtype=col.dtype), deg)
+        deg -= np.bincount(col[~off], minlength=n_nodes)   # a row holds its node at most once
+        col = col[off]
+        del off
+        indptr = np.zeros(n_nodes + 1, dtype=np.int64)
+        np.cumsum(deg, out=indptr[1:])
+        return cls(indptr, col.astype(np.int64))
 
     @classmethod
     def from_pairs(cls, n_nodes: int, a: np.ndarray, b: np.ndarray) -> "Graph":
         """From undirected edges (a[i], b[i]); duplicates and self-loops dropped."""
-        n = np.int64(n_nodes)
-        a, b = np.asarray(a, np.int64), np.asarray(b, np.int64)
-        keep = a != b
-        keys = np.unique(np.concatenate([a[keep] * n + b[keep], b[keep] * n + a[keep]]))
-        return cls.from_keys(n_nodes, keys)
+        return cls.from_cells(n_nodes, [np.stack([np.asarray(a), np.asarray(b)], axis=1)])
 
     @property
     def n_nodes(self) -> int:

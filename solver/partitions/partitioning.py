@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver.collective import agree, on_root
+from solver.collective import agree, on_root, scatter_each
 from solver.partitions import distribute, integrators
 from solver.model import layout as overlap
 from solver.partitions import ranks
@@ -90,7 +90,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
                               share=False) or (None, None)
     if size > 1:
         decided = comm.bcast(decided)
-        graph, mdl = comm.scatter(shares)
+        graph, mdl = scatter_each(comm, shares)
         del shares
     else:
         (graph, mdl), = shares

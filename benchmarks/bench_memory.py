@@ -1,0 +1,205 @@
+"""Set-up memory and time on 1, 2 and 4 ranks: does any rank hold the whole model?
+
+    python benchmarks/bench_memory.py [--a 4e-4] [--T 0.032] [--steps 10] [--ranks 1,2,4]
+
+The scene is benchmarks/bench_scaling.py's coupled bar (configs/bar3d.yaml, 12 cm
+long, 12 mm high, 0.4 mm cubes, a bonded DEM block in the middle) made twice as
+thick, T = 32 mm: 2.27 M DOF.  Each rank count runs the solver as a user would
+(``mpiexec -n N python -m solver``, a few explicit steps) and reads from its
+output every rank's peak resident memory (VmHWM, gathered to rank 0)
+and the set-up wall time (reading the mesh to the first step).  The issue's
+targets (issue 23):
+
+* the largest rank <= 1.3 x the median rank + 100 MB,
+* the sum over the ranks <= 1.3 x the 1-rank peak,
+* set-up on 2 ranks <= 0.7 x set-up on 1 rank.
+
+4 ranks oversubscribe a 2-core machine: its memory counts, its times do not.
+Writes docs/benchmarks/bench_memory.md (benchmarks/tables.py).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import pickle
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import tables                                    # noqa: E402  (benchmarks/tables.py)
+from bench_scaling import SCENE, overrides, read_extra  # noqa: E402  (the same bar, the same attrs)
+from solver.tools.sweep import run_one           # noqa: E402
+
+LARGEST, PLUS_MB, SUM, SETUP = 1.3, 100.0, 1.3, 0.7      # the issue's targets
+DEFAULT = {"a": 4e-4, "T": 0.032, "ranks": "1,2,4"}
+
+
+def sets(a, T, steps) -> list[str]:
+    """bench_scaling's bar at cube size ``a`` and thickness ``T`` (the lattice on the mesh)."""
+    return overrides(a, steps, T=T) + [f"model.lattice.spacing={a}"]
+
+
+def measure(a, T, steps, ranks, tmp) -> dict:
+    """Peak RSS per rank [MB], set-up [s] and DOF of one run on ``ranks`` ranks."""
+    out = tmp / f"memory_{ranks}.h5"
+    run_one(SCENE, ranks, sets(a, T, steps), out)
+    r = read_extra(out)
+    return {"ranks": ranks, "rss": r["rss"], "setup": r["setup"], "dof": r["dof"]}
+
+
+def verdict(ok: bool) -> str:
+    return "yes" if ok else "**no**"
+
+
+def lines_for(runs, a, T, steps) -> list[str]:
+    one = runs[0]
+    peak1, setup1 = float(one["rss"].max()), one["setup"]
+    lines = [f"# Set-up memory: coupled bar, {one['dof']:,} DOF (FEM + bonded DEM lattice), "
+             f"1 to {runs[-1]['ranks']} ranks", "",
+             f"`python benchmarks/bench_memory.py` (run by `./run.sh bench`): configs/bar3d.yaml "
+             f"at 12 cm x 12 mm x {1e3 * T:g} mm, cubes of {1e3 * a:g} mm, {steps} explicit "
+             "steps. Peak RSS is each process's own high-water mark (VmHWM); set-up is the wall time from "
+             "reading the scene to the first step.", "",
+             "| ranks | set-up [s] | set-up / 1 rank | peak RSS per rank [MB] | largest / median "
+             f"| largest <= {LARGEST} x median + {PLUS_MB:.0f} MB | sum [MB] | sum / 1-rank peak "
+             f"| sum <= {SUM} x 1-rank peak |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in runs:
+        rss = r["rss"]
+        big, med, tot = float(rss.max()), float(np.median(rss)), float(rss.sum())
+        lines.append(f"| {r['ranks']} | {r['setup']:.1f} | {r['setup'] / setup1:.2f} | "
+                     f"{' / '.join(f'{x:.0f}' for x in rss)} | {big / med:.2f} | "
+                     f"{verdict(big <= LARGEST * med + PLUS_MB)} | {tot:.0f} | {tot / peak1:.2f} | "
+                     f"{verdict(tot <= SUM * peak1)} |")
+    two = next((r for r in runs if r["ranks"] == 2), None)
+    if two is not None:
+        ratio = two["setup"] / setup1
+        lines += ["", f"- **Set-up, 2 ranks / 1 rank: {ratio:.2f}** (target <= {SETUP}: "
+                  f"{'met' if ratio <= SETUP else 'not met'})."]
+    worst = max(runs, key=lambda r: r["rss"].max() / np.median(r["rss"]))
+    lines += [f"- **Largest rank / median rank: {worst['rss'].max() / np.median(worst['rss']):.2f}** "
+              f"on {worst['ranks']} ranks (rank {int(np.argmax(worst['rss']))} at "
+              f"{worst['rss'].max():.0f} MB).",
+              "- Memory is each process's own peak, whatever else runs on the machine; the "
+              "set-up times come from a shared 2-core machine (4 ranks oversubscribe it), so "
+              "their ratios are indications, not final figures."]
+    return lines
+
+
+def footprint(obj, seen=None) -> int:
+    """Bytes of the numpy arrays reachable from ``obj`` (each array once): through
+    containers, dataclasses and plain objects' attributes."""
+    seen = set() if seen is None else seen
+    if id(obj) in seen or isinstance(obj, (str, bytes, int, float, bool, type(None), type)):
+        return 0
+    seen.add(id(obj))
+    if isinstance(obj, np.ndarray):
+        return obj.nbytes
+    if isinstance(obj, dict):
+        items = obj.values()
+    elif isinstance(obj, (list, tuple, set, frozenset)):
+        items = obj
+    elif dataclasses.is_dataclass(obj):
+        items = [obj.__dict__.get(f.name) for f in dataclasses.fields(obj)]
+    elif hasattr(obj, "__dict__") and not callable(obj):
+        items = vars(obj).values()
+    else:
+        return 0
+    return sum(footprint(x, seen) for x in items)
+
+
+def rss_mb() -> tuple[float, float]:
+    """(resident now, peak so far) of this process [MB] (Linux: /proc/self/statm)."""
+    pages = int(Path("/proc/self/statm").read_text().split()[1])
+    now = pages * resource.getpagesize() / 2 ** 20
+    return now, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def rank0_breakdown(a, T, size) -> list[str]:
+    """Rank 0's set-up on ``size`` ranks, replayed in this process stage by stage
+    (the mesh and the model, the node graph, the plan and every other rank's
+    share): the arrays each stage holds and the peak RSS after it."""
+    # lazy: the runs above start their own processes; only the replay loads the solver here
+    from solver.coupling.schemes import scheme_class
+    from solver.model import arrays as model_mod, binding, data, layout
+    from solver.partitions import partitioning
+    from solver.petscutil import init
+    init([])
+    rows = [("imports, PETSc", None, rss_mb())]
+    store = data.ModelData()
+    scene = binding.load(SCENE, sets(a, T, 10), store)
+    rows.append(("mesh (kept for field output)", footprint(store), rss_mb()))
+    treatments = scheme_class(scene.coupling.scheme).treatments(scene)
+    mdl = model_mod.build(scene, layout.layer_counts(scene.partitions, treatments), store)
+    n = mdl.n_nodes
+    node = mdl.points.nbytes + mdl.mass.nbytes + mdl.fixed.nbytes + mdl.u0.nbytes + mdl.v0.nbytes
+    rows.append(("model: per-node arrays (points, mass, fixed, u0, v0)", node, None))
+    rows.append(("model: cells and bonds", footprint(mdl) - node, rss_mb()))
+    t0 = time.perf_counter()
+    graph = mdl.graph()
+    rows.append((f"node graph (CSR; built in {time.perf_counter() - t0:.1f} s)", footprint(graph),
+                 rss_mb()))
+    del graph
+    plan, shares = partitioning.plan(scene, mdl, size, treatments)
+    graph = shares[0][0]
+    rows.append(("layouts", footprint(plan.layouts), None))
+    numbers = sum(d.number.nbytes for d in plan.dists)
+    rows.append(("distributions: numbering [n_nodes] per partition", numbers, None))
+    rows.append(("distributions: pieces", footprint(plan.dists) - numbers, None))
+    seen = set()                             # what rank 0 holds anyway: not the shares'
+    footprint(mdl, seen)
+    footprint(graph, seen)
+    rows.append((f"shares of ranks 1..{size - 1} (graph rows, cells, bonds)",
+                 sum(footprint(s, seen) for s in shares[1:]), rss_mb()))
+    sent = sum(len(pickle.dumps(s, protocol=pickle.HIGHEST_PROTOCOL)) for s in shares[1:])
+    rows.append((f"shares of ranks 1..{size - 1}, pickled (sent one at a time)", sent, rss_mb()))
+    lines = [f"Rank 0's set-up for {size} ranks, replayed stage by stage in one process "
+             f"({n:,} nodes): the arrays each stage holds (numpy arrays reachable from its "
+             "objects), the resident memory once it is done and the peak so far.", "",
+             "| stage / what rank 0 holds | MB | bytes per node | RSS after [MB] | peak RSS "
+             "after [MB] |", "|---|---|---|---|---|"]
+    for what, nbytes, rss in rows:
+        mb = "–" if nbytes is None else f"{nbytes / 2 ** 20:.0f}"
+        per = "–" if nbytes is None else f"{nbytes / n:.0f}"
+        now, peak = ("–", "–") if rss is None else (f"{x:.0f}" for x in rss)
+        lines.append(f"| {what} | {mb} | {per} | {now} | {peak} |")
+    return lines
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--a", type=float, default=DEFAULT["a"], help="cube size [m]")
+    ap.add_argument("--T", type=float, default=DEFAULT["T"],
+                    help="bar thickness [m] (0.032: 2.27 M DOF at a = 0.4 mm)")
+    ap.add_argument("--steps", type=int, default=10)
+    ap.add_argument("--ranks", default=DEFAULT["ranks"])
+    ap.add_argument("--no-breakdown", action="store_true",
+                    help="skip replaying rank 0's set-up stage by stage")
+    args = ap.parse_args()
+    tmp = Path(tempfile.mkdtemp(prefix="bench_memory_"))
+    counts = sorted(set(map(int, args.ranks.split(","))))
+    if counts[0] != 1:
+        raise SystemExit(f"--ranks: the ratios are to 1 rank, so 1 must be among them, got {args.ranks!r}")
+    runs = []
+    for n in counts:
+        r = measure(args.a, args.T, args.steps, n, tmp)
+        runs.append(r)
+        print(f"{n} rank(s): {r['dof']} DOF, set-up {r['setup']:.1f} s, peak RSS per rank "
+              f"{', '.join(f'{x:.0f}' for x in r['rss'])} MB", flush=True)
+    lines = lines_for(runs, args.a, args.T, args.steps)
+    if counts[-1] > 1 and not args.no_breakdown:
+        lines += [""] + rank0_breakdown(args.a, args.T, counts[-1])
+    doc = {"a": args.a, "T": args.T, "ranks": args.ranks} == DEFAULT and not args.no_breakdown
+    tables.write("bench_memory", lines, doc=doc)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,135 @@
+"""The node graph (solver/model/graph.py): the pattern of C^T C less its
+diagonal is exactly the graph that edge keys a * n + b gave (the previous
+implementation, kept here as the reference), on 2D and 3D meshes of every
+cell kind, with lattice bonds, carried cells and shells, and on networks."""
+import copy
+
+import numpy as np
+import pytest
+
+from conftest import raw_scene
+from solver.model import arrays as model
+from solver.model.binding import from_dict
+from solver.model.graph import Graph
+
+
+def keyed(n_nodes, conns, pairs=None) -> Graph:
+    """The previous ContinuumArrays.graph: unique edge keys a * n + b, by chunks."""
+    n = np.int64(n_nodes)
+    keys = []
+    for conn in conns:
+        k = conn.shape[1]
+        off = ~np.eye(k, dtype=bool)
+        for s in range(0, len(conn), 32768):
+            c = conn[s:s + 32768].astype(np.int64)
+            pair = (c[:, :, None], c[:, None, :])
+            key = (pair[0] * n + pair[1])[:, off]
+            keys.append(np.unique(key[(pair[0] != pair[1])[:, off]]))
+    if pairs is not None:
+        bi, bj = (np.asarray(x, np.int64) for x in pairs)
+        keep = bi != bj
+        keys.append(np.concatenate([bi[keep] * n + bj[keep], bj[keep] * n + bi[keep]]))
+    key = np.unique(np.concatenate(keys)) if keys else np.zeros(0, dtype=np.int64)
+    a, b = key // n, key % n
+    return Graph(np.searchsorted(a, np.arange(n_nodes + 1)).astype(np.int64), b)
+
+
+def brute(n_nodes, conns) -> Graph:
+    """Neighbour sets, one Python set per node."""
+    nb = [set() for _ in range(n_nodes)]
+    for conn in conns:
+        for cell in conn.tolist():
+            for a in cell:
+                nb[a].update(b for b in cell if b != a)
+    rows = [sorted(s) for s in nb]
+    indptr = np.concatenate([[0], np.cumsum([len(r) for r in rows])]).astype(np.int64)
+    return Graph(indptr, np.array([c for r in rows for c in r], dtype=np.int64))
+
+
+def same(g: Graph, ref: Graph):
+    assert g.indptr.dtype == np.int64 and g.indices.dtype == np.int64
+    assert np.array_equal(g.indptr, ref.indptr)
+    assert np.array_equal(g.indices, ref.indices)
+
+
+def model_reference(mdl) -> Graph:
+    lat = mdl.lattice
+    conns = [c for _, c, _ in list(mdl.cells) + list(lat.carried if lat is not None else ())]
+    pairs = lat.bonds[:2] if lat is not None and lat.bonds else None
+    return keyed(mdl.n_nodes, conns, pairs)
+
+
+def tets(h):
+    raw = copy.deepcopy(raw_scene("bar3d"))
+    mesh = raw["model"]["mesh"].replace("bar3d_coupled.geo", "cube3d.geo")
+    raw["model"] = {**{k: v for k, v in raw["model"].items() if k != "lattice"}, "mesh": mesh,
+                    "mesh_parameters": {"h": h}, "body": "solid", "fixed": ["bottom"]}
+    raw["partitions"] = [{"name": "fem", "method": "fem", "group": "solid",
+                          "integrator": "explicit", "ratio": 1}]
+    raw["loads"], raw["probes"] = [], []
+    return raw
+
+
+def scene(name, **params):
+    raw = copy.deepcopy(raw_scene(name))
+    raw["model"]["mesh_parameters"] = {**raw["model"].get("mesh_parameters", {}), **params}
+    return raw
+
+
+# (case, raw scene, what the model must carry, so that the case tests what it says)
+CASES = [
+    ("2D quads", lambda: raw_scene("wave_bar_fem"), {"quad4"}),
+    ("2D triangles", lambda: raw_scene("plate_hole"), {"tri3"}),
+    ("3D tetrahedra", lambda: tets(0.15), {"tet4"}),
+    ("3D hexahedra + cubic lattice", lambda: scene("bar3d"), {"hex8", "bonds"}),
+    ("2D quads + square lattice", lambda: raw_scene("plate_fracture"), {"bonds"}),
+    ("2D transition band (carried cells)", lambda: raw_scene("wave_bar_transition"),
+     {"carried"}),
+    ("shells", lambda: scene("u_tube", nc=24), set()),
+]
+
+
+@pytest.mark.parametrize("case,raw,carries", CASES, ids=[c[0] for c in CASES])
+def test_mesh_graph_is_the_edge_key_graph(case, raw, carries):
+    mdl = model.build(from_dict(raw()))
+    lat = mdl.lattice
+    have = {fam.name for fam, _, _ in mdl.cells}
+    if lat is not None and lat.bonds:
+        have.add("bonds")
+    if lat is not None and len(lat.carried):
+        have.add("carried")
+    assert carries <= have, f"{case}: the model carries {sorted(have)}"
+    g = mdl.graph()
+    ref = model_reference(mdl)
+    assert ref.indices.size > 4 * mdl.n_nodes           # a real mesh, not an empty graph
+    same(g, ref)
+
+
+def test_cells_with_repeated_and_missing_nodes_match_brute_force():
+    """Families of different widths, cells that repeat a node (carried bonds do),
+    bonds given twice and both ways, and nodes in no cell (empty rows)."""
+    rng = np.random.default_rng(7)
+    n = 60
+    conns = [rng.integers(0, 50, (40, 4)), rng.integers(0, 50, (25, 3)),
+             np.array([[51, 51], [52, 53], [53, 52], [52, 53]]), rng.integers(0, 50, (30, 8))]
+    conns[0][:5, 1] = conns[0][:5, 0]                 # repeated nodes in a cell
+    g = Graph.from_cells(n, conns)
+    same(g, brute(n, conns))
+    same(g, keyed(n, conns))
+    assert g.degree([51, 54, 59]).tolist() == [0, 0, 0]     # a cell of one node is no edge
+    assert g.row(52).tolist() == [53] and g.row(53).tolist() == [52]
+
+
+def test_no_cells_is_an_empty_graph():
+    g = Graph.from_cells(5, [np.zeros((0, 4), dtype=np.int64)])
+    assert g.indptr.tolist() == [0] * 6 and g.indices.size == 0
+
+
+def test_network_graph_from_springs():
+    """six_dof's springs (ground excluded), and pairs with repeats and self-loops."""
+    mdl = model.build(from_dict(raw_scene("six_dof")))
+    g = mdl.graph()
+    assert g.indptr.tolist() == [0, 1, 3, 5, 7, 9, 10]
+    assert g.indices.tolist() == [1, 0, 2, 1, 3, 2, 4, 3, 5, 4]
+    a, b = np.array([0, 3, 3, 2, 4, 1]), np.array([1, 3, 0, 1, 0, 0])
+    same(Graph.from_pairs(5, a, b), keyed(5, [], (a, b)))
