@@ -93,3 +93,44 @@ def test_overlap_cells_are_found_by_their_corners_in_any_order():
     assert hits >= 20 * 20                       # every trial matched its 20 picked cells
     assert not same_corners(conn[:, :3], wanted).any()
     assert not same_corners(conn, wanted[:0]).any()
+
+
+def _bonds_by_sorting(lat, keep):
+    """The reference: every kept cell's contributions listed, then summed per
+    bond by np.unique and bincount (what the lattice did before)."""
+    shape = lat.shape
+    idx = np.arange(int(np.prod(shape))).reshape(shape)
+    cells = tuple(n - 1 for n in shape)
+    at = {}
+    for a, b, _ in lat.contributions:
+        for o in (a, b):
+            at[o] = idx[tuple(slice(x, x + n) for x, n in zip(o, cells))].ravel()
+    keep = np.asarray(keep).ravel()
+    i = np.concatenate([at[a][keep] for a, _, _ in lat.contributions])
+    j = np.concatenate([at[b][keep] for _, b, _ in lat.contributions])
+    k = np.concatenate([np.full(keep.sum(), w) for _, _, w in lat.contributions])
+    n = len(lat.points)
+    key = np.minimum(i, j) * n + np.maximum(i, j)
+    uniq, inv = np.unique(key, return_inverse=True)
+    return uniq // n, uniq % n, np.bincount(inv, weights=k)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_bonds_summed_over_the_grid_equal_the_sorted_list_of_cell_contributions(dim):
+    """Lattice.bonds sums each direction's contributions on the site grid; the
+    same bonds, in the same order, with the same stiffness to the last bit as
+    listing every kept cell's contributions and summing them per bond, for
+    all cells, random cells and no cells."""
+    from solver.model.lattice import cubic
+    rng = np.random.default_rng(3)
+    lat = (square((0, 0), (9, 7), 1e-3, 70e9, 0.33, 2700.0, 1e-3) if dim == 2 else
+           cubic((0, 0, 0), (6, 5, 4), 1e-3, 70e9, 0.25, 2700.0))
+    n_cells = len(lat.corners)
+    for keep in (np.ones(n_cells, bool), rng.random(n_cells) < 0.6, np.zeros(n_cells, bool)):
+        got = lat.bonds(keep)
+        ref = _bonds_by_sorting(lat, keep)
+        assert len(got[0]) == len(ref[0]) and (len(got[0]) > 0) == keep.any()
+        for g, r in zip(got, ref):
+            assert np.array_equal(g, r) and (g.dtype == r.dtype or not len(g))
+    assert len(lat.bond_i) == (9 * 6 + 8 * 7 + 2 * 8 * 6 if dim == 2 else
+                               5 * 5 * 4 + 6 * 4 * 4 + 6 * 5 * 3 + 2 * (5 * 4 * 4 + 5 * 5 * 3 + 6 * 4 * 3))

@@ -25,7 +25,7 @@ from solver.model.graph import Graph
 from solver.model.elements import elastic
 from solver.model.interface import Lattice, Shells
 from solver.errors import SceneError
-from solver.model.lattice import cubic, merge, square
+from solver.model.lattice import cubic, square
 
 
 @dataclass(frozen=True)
@@ -195,9 +195,11 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     corners = site_of[lat.corners]
     n_dem = is_dem[corners].sum(axis=1)
     mixed = (n_dem > 0) & (n_dem < corners.shape[1])
-    ci, cj, ck, cell = lat.cell_bonds
-    keep = ~mixed[cell]
-    bi, bj, bk = merge(site_of[ci[keep]], site_of[cj[keep]], ck[keep], len(pts))
+    si, sj, bk = lat.bonds(~mixed)
+    a_, b_ = site_of[si], site_of[sj]
+    bi, bj = np.minimum(a_, b_), np.maximum(a_, b_)
+    order = np.argsort(bi * np.int64(len(pts)) + bj)
+    bi, bj, bk = bi[order], bj[order], bk[order]
     overlap = []
     if mixed.any():
         wanted = np.sort(corners[mixed], axis=1)

@@ -25,6 +25,7 @@ same grid at the surface.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -33,21 +34,61 @@ NU_TOLERANCE = 0.02
 
 @dataclass(frozen=True)
 class Lattice:
-    points: np.ndarray       # [n, 2]
-    bond_i: np.ndarray       # bonds merged over all cells
-    bond_j: np.ndarray
-    stiffness: np.ndarray    # k per bond [N/m]
+    points: np.ndarray       # [n, dim]
     mass: np.ndarray         # [n]
     spacing: float
-    corners: np.ndarray      # [n_cells, 4] particles of each lattice cell
-    cell_bonds: tuple        # (i, j, k, cell) per-cell contributions, before merging
+    corners: np.ndarray      # [n_cells, 2^dim] particles of each lattice cell
+    shape: tuple             # particles per axis
+    contributions: tuple     # (corner offset a, corner offset b, k): every cell's share of bond a-b
 
+    def bonds(self, keep=None):
+        """The bonds of the cells ``keep`` (a mask over the cells; None: all),
+        each cell's contributions summed: (i, j, k) with i < j, by (i, j).
 
-def merge(i, j, k, n):
-    """Sum the contributions of the same bond: (i, j, k) with i < j."""
-    key = np.minimum(i, j) * n + np.maximum(i, j)
-    uniq, inv = np.unique(key, return_inverse=True)
-    return uniq // n, uniq % n, np.bincount(inv, weights=k)
+        The sum runs over the site grid one bond direction at a time (a
+        bond's contributions come from cells of one direction, all of the
+        same k, so any order of summing gives the same bits), never over a
+        list of every cell's contributions: a 3D model's set-up peaked on
+        that list and its sort."""
+        shape = tuple(int(x) for x in self.shape)
+        cells = tuple(x - 1 for x in shape)
+        kept = np.ones(cells) if keep is None else np.asarray(keep, float).reshape(cells)
+        start = {}                       # direction d -> k of the bond from each site p to p + d
+        for a, b, k in self.contributions:
+            d = tuple(int(y) - int(x) for x, y in zip(a, b))
+            grid = start.setdefault(d, np.zeros(shape))
+            # cell c's contribution is to the bond from site c + a
+            grid[tuple(slice(x, x + n) for x, n in zip(a, cells))] += k * kept
+        n = np.int64(len(self.points))
+        i, j, k = [], [], []
+        for d, grid in start.items():
+            p = np.flatnonzero(grid)
+            q = np.ravel_multi_index(tuple(np.array(np.unravel_index(p, shape)) +
+                                           np.array(d)[:, None]), shape)
+            i.append(np.minimum(p, q))
+            j.append(np.maximum(p, q))
+            k.append(grid.ravel()[p])
+        i, j, k = (np.concatenate(x) for x in (i, j, k))
+        order = np.argsort(i.astype(np.int64) * n + j)
+        return i[order].astype(np.int64), j[order].astype(np.int64), k[order]
+
+    @cached_property
+    def _merged(self):
+        return self.bonds()
+
+    @property
+    def bond_i(self) -> np.ndarray:
+        """The bonds of all cells (made when first asked)."""
+        return self._merged[0]
+
+    @property
+    def bond_j(self) -> np.ndarray:
+        return self._merged[1]
+
+    @property
+    def stiffness(self) -> np.ndarray:
+        """k per bond [N/m]."""
+        return self._merged[2]
 
 
 def calibrate(E: float, nu: float, length: float, kind: str) -> tuple[float, float, float]:
@@ -78,19 +119,14 @@ def square(origin, shape, spacing: float, E: float, nu: float, rho: float, thick
     points = np.asarray(origin, float) + spacing * np.stack([ix.ravel(), iy.ravel()], axis=1)
     idx = np.arange(nx * ny).reshape(nx, ny)
     c00, c10, c01, c11 = idx[:-1, :-1], idx[1:, :-1], idx[:-1, 1:], idx[1:, 1:]
-    cells = [(c00, c10, k1 / 2), (c01, c11, k1 / 2), (c00, c01, k1 / 2), (c10, c11, k1 / 2),
-             (c00, c11, k2), (c10, c01, k2)]
-    cell_id = np.arange(c00.size)
-    bi = np.concatenate([a.ravel() for a, _, _ in cells])
-    bj = np.concatenate([b.ravel() for _, b, _ in cells])
-    bk = np.concatenate([np.full(a.size, k) for a, _, k in cells])
-    bc = np.tile(cell_id, len(cells))
+    contributions = (((0, 0), (1, 0), k1 / 2), ((0, 1), (1, 1), k1 / 2),
+                     ((0, 0), (0, 1), k1 / 2), ((1, 0), (1, 1), k1 / 2),
+                     ((0, 0), (1, 1), k2), ((1, 0), (0, 1), k2))
     mass = np.zeros(nx * ny)
     for corner in (c00, c10, c01, c11):
         np.add.at(mass, corner.ravel(), rho * t * spacing ** 2 / 4)
     corners = np.stack([c00.ravel(), c10.ravel(), c11.ravel(), c01.ravel()], axis=1)
-    mi, mj, mk = merge(bi, bj, bk, nx * ny)
-    return Lattice(points, mi, mj, mk, mass, spacing, corners, (bi, bj, bk, bc))
+    return Lattice(points, mass, spacing, corners, (nx, ny), contributions)
 
 
 def cubic(origin, shape, spacing: float, E: float, nu: float, rho: float) -> Lattice:
@@ -102,24 +138,18 @@ def cubic(origin, shape, spacing: float, E: float, nu: float, rho: float) -> Lat
     idx = np.arange(nx * ny * nz).reshape(nx, ny, nz)
     c = {(i, j, k): idx[i:nx - 1 + i, j:ny - 1 + j, k:nz - 1 + k].ravel()
          for i in (0, 1) for j in (0, 1) for k in (0, 1)}
-    contrib = []
+    contributions = []
     for a in c:                                      # 12 edges, 12 face diagonals per cell
         for b in c:
             d = np.subtract(b, a)
             if tuple(a) >= tuple(b) or np.abs(d).sum() not in (1, 2) or np.abs(d).max() > 1:
                 continue
-            contrib.append((c[a], c[b], k_edge / 4 if np.abs(d).sum() == 1 else k_diag / 2))
-    n_cells = c[(0, 0, 0)].size
-    bi = np.concatenate([a for a, _, _ in contrib])
-    bj = np.concatenate([b for _, b, _ in contrib])
-    bk = np.concatenate([np.full(a.size, k) for a, _, k in contrib])
-    bc = np.tile(np.arange(n_cells), len(contrib))
+            contributions.append((a, b, k_edge / 4 if np.abs(d).sum() == 1 else k_diag / 2))
     mass = np.zeros(nx * ny * nz)
     for corner in c.values():
         np.add.at(mass, corner, rho * spacing ** 3 / 8)
     corners = np.stack(list(c.values()), axis=1)
-    mi, mj, mk = merge(bi, bj, bk, nx * ny * nz)
-    return Lattice(points, mi, mj, mk, mass, spacing, corners, (bi, bj, bk, bc))
+    return Lattice(points, mass, spacing, corners, (nx, ny, nz), tuple(contributions))
 
 
 def simple_cubic(n: int, spacing: float = 1.0, k: float = 1.0, mass: float = 1.0):

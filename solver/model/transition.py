@@ -31,7 +31,7 @@ import numpy as np
 from solver.errors import SceneError
 from solver.model.elements import FAMILIES
 from solver.model.embedding import Embedding, find, flat_cells, locate_in_cells
-from solver.model.lattice import cubic, merge, square
+from solver.model.lattice import cubic, square
 
 
 class RankOneBonds:
@@ -163,8 +163,7 @@ def build(spec, mesh) -> Transition:
     kept = (band_cell >= 0) | in_region
     # lattice cells with every corner kept carry the bonds and the masses
     full = kept[grid.corners].all(axis=1)
-    ci, cj, ck, cell = grid.cell_bonds
-    bi, bj, bk = merge(ci[full[cell]], cj[full[cell]], ck[full[cell]], len(grid.points))
+    bi, bj, bk = grid.bonds(full)
     t = mat.depth
     share = mat.rho * (t * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
     mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
