@@ -79,7 +79,7 @@ class Contact:
         key = a * KEY + b                             # bond b's pair key (local indices)
         self._key_order = np.argsort(key, kind="stable")
         self._sorted_keys = key[self._key_order]
-        self._x_built = None
+        self._u_built = None                          # displacements at the last build
         self._pairs = np.zeros((0, 2), dtype=np.int64)
         self._last = None                             # (i, j, n, tangent k) of the last forces
         self.builds = 0
@@ -98,9 +98,9 @@ class Contact:
     def stale(self, u) -> bool:
         """Whether the tree must be rebuilt at displacements ``u``: never built,
         or a particle has moved more than half the skin since."""
-        if self._x_built is None:
+        if self._u_built is None:
             return True
-        moved = np.max(np.linalg.norm(self._points(u) - self._x_built, axis=1), initial=0.0)
+        moved = np.max(np.linalg.norm(u[self.nodes] - self._u_built, axis=1), initial=0.0)
         return bool(moved > 0.5 * self.skin)
 
     def renew(self, nodes, mass, rest):
@@ -109,15 +109,13 @@ class Contact:
         tree is then built by :meth:`build`."""
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self.mass, self.rest = mass, rest
-        self._x_built = None
+        self._u_built = None
 
     def build(self, u):
-        """The candidate pairs at displacements ``u``."""
-        self._build(self._points(u))
-
-    def _build(self, pts):
+        """The candidate pairs at displacements ``u``, and those with an owned
+        end with their bonds and rest separations (what every step reads)."""
         from scipy.spatial import cKDTree  # lazy: scipy loads only where it is used
-        pairs = cKDTree(pts).query_pairs(self.reach, output_type="ndarray")
+        pairs = cKDTree(self._points(u)).query_pairs(self.reach, output_type="ndarray")
         self._pairs = self.nodes[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
         # each candidate pair's bond (-1: none), found once per build
         i, j = self._pairs[:, 0], self._pairs[:, 1]
@@ -125,24 +123,32 @@ class Contact:
         at = np.minimum(np.searchsorted(self._sorted_keys, key), max(len(self._sorted_keys) - 1, 0))
         found = self._sorted_keys[at] == key if len(self._sorted_keys) else np.zeros(len(key), bool)
         self._pair_bond = np.where(found, self._key_order[at] if len(self._key_order) else -1, -1)
-        self._x_built = pts.copy()
+        mine = (i < self.owned) | (j < self.owned)
+        i, j, bond = i[mine], j[mine], self._pair_bond[mine]
+        rest = self.rest[j] - self.rest[i] if self.rest is not None else None
+        self._mine = (i, j, bond, np.flatnonzero(bond >= 0), rest)
+        self._u_built = u[self.nodes].copy()
         self.builds += 1
 
     def _touching(self, u, alive, node=None):
         """(i, j, d = x_j - x_i, distance, overlap) at displacements ``u`` of the
         candidate pairs (of ``node`` only, if given) that overlap and share no
         live bond."""
-        i, j = self._pairs[:, 0], self._pairs[:, 1]
-        at = (i == node) | (j == node) if node is not None else \
-            (i < self.owned) | (j < self.owned)
-        i, j, bond = i[at], j[at], self._pair_bond[at]
+        if node is None:                                     # the pairs with an owned end
+            i, j, bond, with_bond, rest = self._mine
+        else:
+            i, j = self._pairs[:, 0], self._pairs[:, 1]
+            at = (i == node) | (j == node)
+            i, j, bond = i[at], j[at], self._pair_bond[at]
+            with_bond = np.flatnonzero(bond >= 0)
+            rest = self.rest[j] - self.rest[i] if self.rest is not None else None
         d = u[j] - u[i]
-        if self.rest is not None:
-            d += self.rest[j] - self.rest[i]
+        if rest is not None:
+            d += rest
         dist = np.linalg.norm(d, axis=1)
         overlap = 2 * self.radius - dist
-        bonded = bond >= 0
-        bonded[bonded] = alive[bond[bonded]]                 # a live bond excludes the pair
+        bonded = np.zeros(len(i), bool)
+        bonded[with_bond] = alive[bond[with_bond]]           # a live bond excludes the pair
         touch = (overlap > 0) & ~bonded & (dist > 0)
         return i[touch], j[touch], d[touch], dist[touch], overlap[touch]
 
