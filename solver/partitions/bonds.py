@@ -102,7 +102,6 @@ class BondForce(Force):
         self._fj = self.j < self.n_held
         self._ri, self._rj = self.i[self._fi], self.j[self._fj]
         self._u = np.zeros_like(self.X)            # displacements of held + ghost particles
-        self._x = np.zeros_like(self.X)            # ... and their positions X + u
         self._snapped = np.zeros(len(k), dtype=np.int64)
         self.contact = self.halo = None
         if contact is not None:
@@ -154,7 +153,7 @@ class BondForce(Force):
         self._scatter(np.concatenate([self._bond_ghosts, numbers]))
         self.X = np.concatenate([self.X[:n0], rest])
         self.ids = np.concatenate([self.ids[:n0], ids])
-        self._u, self._x = np.zeros_like(self.X), np.zeros_like(self.X)
+        self._u = np.zeros_like(self.X)
         particles, bonded_mass = self._bonded_contact
         self.contact.renew(np.concatenate([particles, n0 + np.arange(ids.size)]),
                            np.concatenate([bonded_mass, mass]), self.X)
@@ -204,11 +203,6 @@ class BondForce(Force):
             self._ghost.scatter(u_vec, self._g_vec, *self._modes)
             u[n:] = self._g_arr.reshape(-1, self.dim)
         return u
-
-    def positions(self, u_vec):
-        """Positions X + u of the held and ghost particles (collective), in a
-        buffer the next call overwrites."""
-        return np.add(self.X, self.displacements(u_vec), out=self._x)
 
     def separations(self, u, bonds=slice(None)):
         """x_j - x_i of ``bonds`` at displacements ``u`` (of :meth:`displacements`),

@@ -123,12 +123,16 @@ class Contact:
         at = np.minimum(np.searchsorted(self._sorted_keys, key), max(len(self._sorted_keys) - 1, 0))
         found = self._sorted_keys[at] == key if len(self._sorted_keys) else np.zeros(len(key), bool)
         self._pair_bond = np.where(found, self._key_order[at] if len(self._key_order) else -1, -1)
-        mine = (i < self.owned) | (j < self.owned)
-        i, j, bond = i[mine], j[mine], self._pair_bond[mine]
-        rest = self.rest[j] - self.rest[i] if self.rest is not None else None
-        self._mine = (i, j, bond, np.flatnonzero(bond >= 0), rest)
+        self._mine = self._subset((i < self.owned) | (j < self.owned))
         self._u_built = u[self.nodes].copy()
         self.builds += 1
+
+    def _subset(self, at):
+        """(i, j, bond, which of them have a bond, rest separations X_j - X_i or
+        None) of the candidate pairs ``at`` (a mask)."""
+        i, j, bond = self._pairs[at, 0], self._pairs[at, 1], self._pair_bond[at]
+        rest = self.rest[j] - self.rest[i] if self.rest is not None else None
+        return i, j, bond, np.flatnonzero(bond >= 0), rest
 
     def _touching(self, u, alive, node=None):
         """(i, j, d = x_j - x_i, distance, overlap) at displacements ``u`` of the
@@ -137,11 +141,7 @@ class Contact:
         if node is None:                                     # the pairs with an owned end
             i, j, bond, with_bond, rest = self._mine
         else:
-            i, j = self._pairs[:, 0], self._pairs[:, 1]
-            at = (i == node) | (j == node)
-            i, j, bond = i[at], j[at], self._pair_bond[at]
-            with_bond = np.flatnonzero(bond >= 0)
-            rest = self.rest[j] - self.rest[i] if self.rest is not None else None
+            i, j, bond, with_bond, rest = self._subset((self._pairs == node).any(axis=1))
         d = u[j] - u[i]
         if rest is not None:
             d += rest
