@@ -148,8 +148,11 @@ def rank0_breakdown(a, T, size) -> list[str]:
     rows.append((f"node graph (CSR; built in {time.perf_counter() - t0:.1f} s)", footprint(graph),
                  rss_mb()))
     del graph
+    t0 = time.perf_counter()
     plan, shares = partitioning.plan(scene, mdl, size, treatments)
-    graph = shares[0][0]
+    graph, _ = next(shares)
+    rows.append((f"layouts, distributions, RCM orders (planned in {time.perf_counter() - t0:.1f} s)",
+                 None, rss_mb()))
     rows.append(("layouts", footprint(plan.layouts), None))
     numbers = sum(d.number.nbytes for d in plan.dists)
     rows.append(("distributions: numbering [n_nodes] per partition", numbers, None))
@@ -157,10 +160,15 @@ def rank0_breakdown(a, T, size) -> list[str]:
     seen = set()                             # what rank 0 holds anyway: not the shares'
     footprint(mdl, seen)
     footprint(graph, seen)
-    rows.append((f"shares of ranks 1..{size - 1} (graph rows, cells, bonds)",
-                 sum(footprint(s, seen) for s in shares[1:]), rss_mb()))
-    sent = sum(len(pickle.dumps(s, protocol=pickle.HIGHEST_PROTOCOL)) for s in shares[1:])
-    rows.append((f"shares of ranks 1..{size - 1}, pickled (sent one at a time)", sent, rss_mb()))
+    largest, sent = 0, 0
+    for share in shares:                     # made, pickled and dropped one at a time, as sent
+        largest = max(largest, footprint(share, set(seen)))
+        sent = max(sent, len(pickle.dumps(share, protocol=pickle.HIGHEST_PROTOCOL)))
+        del share
+    rows.append((f"largest share of ranks 1..{size - 1} (graph rows, cells, bonds)", largest,
+                 None))
+    rows.append((f"largest share of ranks 1..{size - 1}, pickled (one held at a time)", sent,
+                 rss_mb()))
     lines = [f"Rank 0's set-up for {size} ranks, replayed stage by stage in one process "
              f"({n:,} nodes): the arrays each stage holds (numpy arrays reachable from its "
              "objects), the resident memory once it is done and the peak so far.", "",

@@ -36,16 +36,21 @@ def on_root(comm, fn, *args, share: bool = True):
 
 
 def scatter_each(comm, items):
-    """Collective: ``items[r]`` (a list on rank 0, one item per rank) to rank r,
-    one message at a time, each dropped from the list once sent, so that rank 0
-    holds one pickled item at a time (``comm.scatter`` pickles them all at once:
-    1.8 GB of rank 0's peak for the 2.27 M-DOF bar's shares on 4 ranks)."""
+    """Collective: the r-th of ``items`` (on rank 0: a list, or an iterable that
+    makes each item when asked, one per rank) to rank r, one message at a time;
+    rank 0 drops each once sent, so it holds one other rank's item, pickled, at a
+    time (``comm.scatter`` pickles them all at once: 1.8 GB of rank 0's peak for
+    the 2.27 M-DOF bar's shares on 4 ranks).  Making an item must not fail: the
+    other ranks are waiting for it."""
     if comm.rank != 0:
         return comm.recv(source=0, tag=SCATTER_TAG)
+    items = iter(items)
+    mine = next(items)
     for r in range(1, comm.size):
-        comm.send(items[r], dest=r, tag=SCATTER_TAG)
-        items[r] = None
-    return items[0]
+        item = next(items)
+        comm.send(item, dest=r, tag=SCATTER_TAG)
+        del item
+    return mine
 
 
 SCATTER_TAG = 2301                          # scatter_each's messages

@@ -81,12 +81,18 @@ class Graph(NamedTuple):
         return Graph(indptr, self.rows(nodes))
 
     def induced(self, nodes) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, cols) of the edges among ``nodes``, in positions of ``nodes``."""
+        """(indptr, indices) of the subgraph among ``nodes``, in positions of
+        ``nodes`` (int32 where they fit); a row's columns are sorted when
+        ``nodes`` is."""
         nodes = np.asarray(nodes, dtype=np.int64)
-        local = np.full(self.n_nodes, -1, dtype=np.int64)
-        local[nodes] = np.arange(nodes.size)
+        itype = np.int32 if nodes.size < 2 ** 31 else np.int64
+        local = np.full(self.n_nodes, -1, dtype=itype)
+        local[nodes] = np.arange(nodes.size, dtype=itype)
+        cols = local[self.rows(nodes)]
+        inside = cols >= 0
         deg = self.degree(nodes)
-        r = np.repeat(np.arange(nodes.size), deg)
-        c = local[self.rows(nodes)]
-        inside = c >= 0
-        return r[inside], c[inside]
+        kept = np.add.reduceat(inside, np.cumsum(deg) - deg) if inside.size else deg * 0
+        kept[deg == 0] = 0                       # reduceat reads the next row for an empty one
+        indptr = np.zeros(nodes.size + 1, dtype=np.int64)
+        np.cumsum(kept, out=indptr[1:])
+        return indptr, cols[inside]

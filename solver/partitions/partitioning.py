@@ -52,7 +52,7 @@ def plan(scene, mdl, size, treatments, assignment=None):
     every partition's distribution over its ranks, the dense stability check,
     and for every rank its share: the graph rows of the nodes it holds (its
     preallocation) and the model's cells and bonds that touch them.  Returns
-    (Plan, [(graph rows, model share)] per rank)."""
+    (Plan, the (graph rows, model share) of rank 0, 1, ... made one at a time)."""
     R = scene.system_ratio
     graph = mdl.graph()
     layouts = overlap.derive(graph, scene.partitions,
@@ -65,11 +65,20 @@ def plan(scene, mdl, size, treatments, assignment=None):
     dists = [distribute.split(lay, graph, len(assignment.ranks[p]))
              for p, lay in enumerate(layouts)]
     freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
-    shares = [(graph, mdl)]                  # rank 0 keeps the whole model (it writes fields)
+    return Plan(layouts, assignment, dists, freqs, problems), _shares(graph, mdl, dists,
+                                                                      assignment, size)
+
+
+def _shares(graph, mdl, dists, assignment, size):
+    """Every rank's share, made when asked for (rank 0 holds one other rank's at a
+    time): rank 0 keeps the whole model (it writes fields) and, on several ranks,
+    the graph rows of its own nodes (the whole graph is dropped once every share
+    is made); rank r > 0 gets the graph rows and the model's cells and bonds of
+    the nodes it holds."""
+    yield (graph.restrict(distribute.held_on(dists, assignment, 0)) if size > 1 else graph), mdl
     for r in range(1, size):
         held = distribute.held_on(dists, assignment, r)
-        shares.append((graph.restrict(held), mdl.share(held)))
-    return Plan(layouts, assignment, dists, freqs, problems), shares
+        yield graph.restrict(held), mdl.share(held)
 
 
 def build_error(name: str, e: Exception) -> SceneError:
@@ -90,10 +99,8 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
                               share=False) or (None, None)
     if size > 1:
         decided = comm.bcast(decided)
-        graph, mdl = scatter_each(comm, shares)
-        del shares
-    else:
-        (graph, mdl), = shares
+    graph, mdl = scatter_each(comm, shares) if size > 1 else next(shares)
+    del shares
     layouts, assignment, dists, freqs = (decided.layouts, decided.assignment, decided.dists,
                                          dict(decided.freqs))
     for line in assignment.lines([p.name for p in scene.partitions]):
