@@ -62,9 +62,7 @@ def rcm(nodes: np.ndarray, graph) -> np.ndarray:
     if n <= 2:
         return nodes.copy()
     P = init()
-    nodes = np.asarray(nodes, dtype=np.int64)
-    order = np.argsort(nodes, kind="stable")
-    srt = nodes[order]
+    srt = np.sort(np.asarray(nodes, dtype=np.int64))
     indptr, indices = graph.induced(srt)         # sorted nodes: sorted columns
     G = P.Mat().createAIJWithArrays((n, n), (indptr.astype(P.IntType), indices.astype(
         P.IntType, copy=False), np.zeros(indices.size, dtype=P.ScalarType)), comm=P.COMM_SELF)
