@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.errors import SolverError
+from solver.errors import SolverError, describe
 
 
 def on_root(comm, fn, *args, share: bool = True):
@@ -38,18 +38,39 @@ def on_root(comm, fn, *args, share: bool = True):
 def scatter_each(comm, items):
     """Collective: the r-th of ``items`` (on rank 0: a list, or an iterable that
     makes each item when asked, one per rank) to rank r, one message at a time;
-    rank 0 drops each once sent, so it holds one other rank's item, pickled, at a
-    time (``comm.scatter`` pickles them all at once: 1.8 GB of rank 0's peak for
-    the 2.27 M-DOF bar's shares on 4 ranks).  Making an item must not fail: the
-    other ranks are waiting for it."""
+    rank 0 drops each once sent, so it holds one other rank's item at a time
+    (``comm.scatter`` pickles them all at once: 1.8 GB of rank 0's peak for
+    the 2.27 M-DOF bar's shares on 4 ranks).  The items travel as pickle
+    protocol 5 with their arrays out of band (:mod:`mpi4py.util.pkl5`): an
+    array is sent from its own memory and received into its final buffer, with
+    no pickled copy of it on either rank.  An error while making an item
+    (rank 0) reaches the ranks still waiting, and is raised on every rank."""
+    from mpi4py.util import pkl5  # lazy: importing mpi4py starts MPI; the entry point decides when
+
+    big = pkl5.Intracomm(comm)
     if comm.rank != 0:
-        return comm.recv(source=0, tag=SCATTER_TAG)
+        item = big.recv(source=0, tag=SCATTER_TAG)
+        error = comm.bcast(None)
+        if error is not None:
+            raise error
+        return item
     items = iter(items)
-    mine = next(items)
-    for r in range(1, comm.size):
-        item = next(items)
-        comm.send(item, dest=r, tag=SCATTER_TAG)
-        del item
+    r, error, cause = 0, None, None
+    try:
+        mine = next(items)
+        for r in range(1, comm.size):
+            item = next(items)
+            big.send(item, dest=r, tag=SCATTER_TAG)
+            del item
+    except Exception as e:                      # noqa: BLE001 -- every rank learns it
+        cause = e
+        error = e if isinstance(e, SolverError) else \
+            SolverError(f"rank 0 could not make rank {r}'s share ({describe(e)})")
+        for rest in range(max(r, 1), comm.size):        # the ranks still waiting
+            big.send(None, dest=rest, tag=SCATTER_TAG)
+    comm.bcast(error)
+    if error is not None:
+        raise error from (cause if cause is not error else None)
     return mine
 
 

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parent.parent / "solver"
 
 # stage of each module: bottom modules by name, the rest by sub-package
 BOTTOM = {"solver.errors", "solver.collective", "solver.petscutil", "solver.version",
-          "solver.threads", "solver.laws"}    # laws: the scene's allowed law names come from it
+          "solver.threads", "solver.memory", "solver.laws"}    # laws: the scene's allowed law names come from it
 PACKAGE_STAGE = {"scene": 1, "model": 2, "partitions": 3, "coupling": 4, "driver": 5, "tools": 6}
 TOP = 7                      # solver/__init__, solver/__main__
 

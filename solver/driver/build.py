@@ -11,6 +11,7 @@ from solver.model import arrays as model_mod, element_steps
 from solver.collective import on_root
 from solver.driver import balance
 from solver.model import layout as overlap
+from solver.memory import release
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
 from solver.partitions import integrators, levels
@@ -52,7 +53,9 @@ def run_flags(petsc_options) -> tuple[list, bool]:
 
 def _model(scene, store):
     treatments = scheme_class(scene.coupling.scheme).treatments(scene)
-    return model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments), store)
+    mdl = model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments), store)
+    release()                       # the build's temporaries
+    return mdl
 
 
 def resolve(scene, comm, store=None, say=_silent):

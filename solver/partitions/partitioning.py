@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.collective import agree, on_root, scatter_each
+from solver.memory import release
 from solver.partitions import distribute, integrators
 from solver.model import layout as overlap
 from solver.partitions import ranks
@@ -101,6 +102,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
         decided = comm.bcast(decided)
     graph, mdl = scatter_each(comm, shares) if size > 1 else next(shares)
     del shares
+    release()                    # rank 0: the whole graph and the planning temporaries
     layouts, assignment, dists, freqs = (decided.layouts, decided.assignment, decided.dists,
                                          dict(decided.freqs))
     for line in assignment.lines([p.name for p in scene.partitions]):
@@ -124,6 +126,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
         for part in parts:
             part.graph = None        # preallocation done: the graph rows are not kept
         del graph
+        release()
         check_large(scene, parts, freqs, comm, say)
         refuse(scene, scene.scheme.built_problems(scene, freqs), say, freqs,
                dropped=scene.scheme.dropped)
