@@ -1,10 +1,10 @@
 """Stress at continuum probes: sigma_cc along the probe's component c.
 
 Both are linear in the displacement, so each probe is one row of coefficients
-over the DOFs of its node and neighbours, assembled into a small PETSc matrix
-over the partition's held DOFs (:meth:`Partition.operator`): one MatMult per
-system step gives every probe of the partition, its ghosts refreshed by PETSc
-whatever the rank layout.
+over the DOFs of its node and neighbours, assembled over the partition's held
+DOFs (:meth:`Partition.operator`) and kept as a matrix of the probe rows alone
+(:func:`probe_rows`): one MatMult per system step gives every probe of the
+partition, its ghosts refreshed by PETSc whatever the rank layout.
 
 - FE node: the average over the node's FE cells of the cell-averaged stress
   (D B u averaged over the cell's quadrature points), the stress the field
@@ -125,9 +125,10 @@ class StressProbes:
                 np.add.at(Ke[0, row], (where[:, None] * dim + np.arange(dim)).ravel(), coef.ravel())
                 blocks.append((conn[None, :], Ke))
                 rows.append((probe.name, int(part.starts[loc]) + probe.component))
-            S = part.operator(blocks)
-            out = np.zeros(part.held_dofs.size)
-            self.ops.append((S, part.u, vec_on(out, part.comm), out, rows))
+            S, at = probe_rows(part.operator(blocks), [i for _, i in rows])
+            out = np.zeros(S.getLocalSize()[0])
+            self.ops.append((S, part.u, vec_on(out, part.comm), out,
+                             [(name, j) for j, (name, _) in zip(at, rows)]))
             if nonlinear:               # every piece: the ghost refresh is collective
                 self.current.append((part.force, part.u, current))
 
@@ -162,6 +163,31 @@ class StressProbes:
             S.destroy()
             out_vec.destroy()
         self.ops = []
+
+
+def probe_rows(S, rows):
+    """(The block rows holding rows ``rows`` (local indices of this rank's) of the
+    square partition operator ``S`` as their own matrix, with S's column layout;
+    where each of ``rows`` is in it) (collective; S is destroyed): a MatMult then costs the probes' entries, not a pass over every
+    row of the partition (3.7 ms per system step for two probes on the 1.15 M-DOF
+    bar, 8 % of its 1-rank step, before)."""
+    P = init()
+    lo = S.getOwnershipRange()[0]
+    clo, chi = S.getOwnershipRangeColumn()
+    comm = S.getComm()
+    bs = S.getBlockSize()                        # BAIJ takes whole block rows
+    rows = np.asarray(rows, dtype=np.int64)
+    kept = (np.unique(rows // bs)[:, None] * bs + np.arange(bs)).ravel()
+    isrow = P.IS().createGeneral((kept + lo).astype(P.IntType), comm=comm)
+    isrow.setBlockSize(bs)
+    iscol = P.IS().createStride(chi - clo, clo, 1, comm=comm)
+    iscol.setBlockSize(bs)
+    try:
+        return S.createSubMatrix(isrow, iscol), np.searchsorted(kept, rows)
+    finally:
+        isrow.destroy()
+        iscol.destroy()
+        S.destroy()
 
 
 def build(scene, mdl, parts):
