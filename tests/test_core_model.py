@@ -161,6 +161,40 @@ def test_a_share_keeps_only_the_bonds_it_touches(models):
     assert share.lattice.geometry == lat.lattice.geometry
 
 
+def test_a_dem_rank_share_has_no_body_cells_and_zero_states_travel_as_zeros(models):
+    """A rank that steps no fem partition gets no body cells (without a band),
+    the same bond and overlap blocks; with a band it keeps them (its dem
+    piece steps cells). An all-zero u0 / v0 pickles as np.zeros (a few bytes,
+    received as a plain writable array); a non-zero one travels as it is."""
+    import dataclasses
+    import pickle
+    from solver.model.continuum import BondStiffness
+    _, lat = models["lattice"]
+    nodes = np.unique(lat.lattice.bonds[0][:50])
+    dem = lat.share(nodes, body_cells=False)
+    full = lat.share(nodes)
+    assert sum(len(c) for _, c, _ in full.cells) > 0
+    assert sum(len(c) for _, c, _ in dem.cells) == 0
+    for (c1, k1), (c2, k2) in zip(dem.bond_blocks(nodes), full.bond_blocks(nodes)):
+        assert np.array_equal(c1, c2)
+        if isinstance(k1, BondStiffness):
+            assert np.array_equal(k1.k, k2.k)
+        else:
+            assert np.array_equal(k1[np.arange(len(c1))], k2[np.arange(len(c2))])
+    _, band = models["transition"]
+    kept = band.share(np.arange(band.n_nodes), body_cells=False)
+    assert sum(len(c) for _, c, _ in kept.cells) == sum(len(c) for _, c, _ in band.cells) > 0
+    assert not lat.u0.any()
+    small = pickle.dumps(dem.u0, protocol=5, buffer_callback=lambda b: None)
+    assert len(small) < 200
+    back = pickle.loads(pickle.dumps(dem, protocol=5))
+    assert type(back.u0) is np.ndarray and back.u0.flags.writeable
+    assert np.array_equal(back.u0, lat.u0) and np.array_equal(back.v0, lat.v0)
+    moving = dataclasses.replace(lat, v0=np.linspace(0.0, 1.0, lat.n_dofs))
+    sent = pickle.loads(pickle.dumps(moving.share(nodes), protocol=5))
+    assert np.array_equal(sent.v0, moving.v0)
+
+
 def test_a_side_model_answers_through_the_declared_names(models):
     from solver.coupling.conserving import SideModel
     from solver.model.interface import ModelInterface, features

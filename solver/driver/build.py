@@ -54,6 +54,8 @@ def run_flags(petsc_options) -> tuple[list, bool]:
 def _model(scene, store):
     treatments = scheme_class(scene.coupling.scheme).treatments(scene)
     mdl = model_mod.build(scene, overlap.layer_counts(scene.partitions, treatments), store)
+    if store is not None:
+        store.built()               # (a one-run store lets go of the mesh)
     release()                       # the build's temporaries
     return mdl
 

@@ -76,9 +76,10 @@ class Model:
         free = (self.spring_i >= 0) & (self.spring_j >= 0)
         return Graph.from_pairs(self.n_nodes, self.spring_i[free], self.spring_j[free])
 
-    def share(self, nodes) -> "Model":
+    def share(self, nodes, body_cells: bool = True) -> "Model":
         """This model with only the springs that touch ``nodes`` (what a rank
-        holding those nodes assembles)."""
+        holding those nodes assembles; a network has no cells: ``body_cells``
+        changes nothing)."""
         inh = np.zeros(self.n_nodes + 1, bool)           # slot -1: the ground
         inh[nodes] = True
         keep = inh[self.spring_i] | inh[self.spring_j]

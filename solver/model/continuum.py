@@ -25,6 +25,7 @@ from solver.model.graph import Graph
 from solver.model.elements import elastic
 from solver.model.interface import Lattice, Shells
 from solver.errors import SceneError
+from solver.memory import zeros_if_zero
 from solver.model.lattice import cubic, square
 
 
@@ -68,12 +69,16 @@ class ContinuumArrays:
         inh[held] = True
         return inh
 
-    def share(self, nodes) -> "ContinuumArrays":
+    def share(self, nodes, body_cells: bool = True) -> "ContinuumArrays":
         """This model with only the cells and bonds that touch ``nodes``: what a
-        rank holding those nodes assembles (node arrays keep global ids)."""
+        rank holding those nodes assembles (node arrays keep global ids; an
+        all-zero u0 or v0 travels as np.zeros).  ``body_cells`` False: none of
+        the body's cells, for a rank that steps no fem partition (without a
+        transition band a dem piece applies bonds, overlap and carried cells)."""
         inh = self._held(nodes)
+        body = inh if body_cells or self.zone is not None else np.zeros_like(inh)
 
-        def touching(cells):
+        def touching(cells, inh=inh):
             return [(fam, *kept(conn, Ke, inh[conn].any(axis=1))) for fam, conn, Ke in cells]
         lat = self.lattice
         if lat is not None:
@@ -84,7 +89,8 @@ class ContinuumArrays:
                 bonds = (bi[keep], bj[keep], k[keep])
             lat = dataclasses.replace(lat, bonds=bonds, overlap_cells=touching(lat.overlap_cells),
                                       carried=touching(lat.carried))
-        return dataclasses.replace(self, cells=touching(self.cells), lattice=lat)
+        return dataclasses.replace(self, cells=touching(self.cells, body), lattice=lat,
+                                   u0=zeros_if_zero(self.u0), v0=zeros_if_zero(self.v0))
 
     def _cell_blocks(self, cells, held) -> list:
         inh = self._held(held)

@@ -93,8 +93,9 @@ class ModelInterface(Protocol):
     def graph(self) -> Graph:
         """Adjacent nodes of every node."""
 
-    def share(self, nodes) -> "ModelInterface":
-        """The model with only the elements that touch ``nodes``."""
+    def share(self, nodes, body_cells: bool = True) -> "ModelInterface":
+        """The model with only the elements that touch ``nodes`` (``body_cells``
+        False: without the body's cells, for a rank that steps no fem partition)."""
 
     def stiffness_blocks(self, held: np.ndarray) -> list:
         """Blocks of the elements a fem partition holding ``held`` assembles."""

@@ -66,20 +66,22 @@ def plan(scene, mdl, size, treatments, assignment=None):
     dists = [distribute.split(lay, graph, len(assignment.ranks[p]))
              for p, lay in enumerate(layouts)]
     freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
-    return Plan(layouts, assignment, dists, freqs, problems), _shares(graph, mdl, dists,
-                                                                      assignment, size)
+    return Plan(layouts, assignment, dists, freqs, problems), _shares(
+        graph, mdl, dists, assignment, size, [p.method for p in scene.partitions])
 
 
-def _shares(graph, mdl, dists, assignment, size):
+def _shares(graph, mdl, dists, assignment, size, methods):
     """Every rank's share, made when asked for (rank 0 holds one other rank's at a
     time): rank 0 keeps the whole model (it writes fields) and, on several ranks,
     the graph rows of its own nodes (the whole graph is dropped once every share
     is made); rank r > 0 gets the graph rows and the model's cells and bonds of
-    the nodes it holds."""
+    the nodes it holds (no body cells where it steps no fem partition:
+    ``methods``, every partition's)."""
     yield (graph.restrict(distribute.held_on(dists, assignment, 0)) if size > 1 else graph), mdl
     for r in range(1, size):
         held = distribute.held_on(dists, assignment, r)
-        yield graph.restrict(held), mdl.share(held)
+        fem = any(methods[p] == "fem" for p in assignment.partitions_on(r))
+        yield graph.restrict(held), mdl.share(held, body_cells=fem)
 
 
 def build_error(name: str, e: Exception) -> SceneError:

@@ -212,7 +212,7 @@ def main(argv=None) -> int:
         # lazy: each command loads only what it runs (keys, schemes, --help start fast)
         from solver.model.data import ModelData
         from solver.driver.build import run_flags
-        store = ModelData()
+        store = ModelData(keep=False)          # one run: the mesh goes once the model is built
         scene, effective = load_on_root(comm, path, overrides, store)
         petsc_only, measure_wait = run_flags(petsc_args)
         start_petsc(petsc_only)
