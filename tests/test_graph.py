@@ -47,7 +47,8 @@ def brute(n_nodes, conns) -> Graph:
 
 
 def same(g: Graph, ref: Graph):
-    assert g.indptr.dtype == np.int64 and g.indices.dtype == np.int64
+    assert g.indptr.dtype == np.int64
+    assert g.indices.dtype == (np.int32 if g.n_nodes < 2 ** 31 else np.int64)
     assert np.array_equal(g.indptr, ref.indptr)
     assert np.array_equal(g.indices, ref.indices)
 
@@ -180,3 +181,26 @@ def test_induced_csr_and_rcm_order_match_the_coo_construction():
                       for k in (0, 1)], -1).reshape(-1, 8)
     g = Graph.from_cells(idx.size, [hexes])
     assert np.array_equal(distribute.rcm(np.arange(idx.size), g), coo_rcm(np.arange(idx.size), g))
+
+
+def mixed_chain():
+    from mixed_dofs import mixed                   # tests/mixed_dofs.py: 1 and 2 DOFs
+    return mixed(model.build(from_dict(raw_scene("six_dof"))))
+
+
+@pytest.mark.parametrize("make,mixed", [(lambda: model.build(from_dict(scene("bar3d"))), False),
+                                        (mixed_chain, True)],
+                         ids=["uniform 3 DOFs", "mixed 1 and 2 DOFs"])
+def test_owned_nonzeros_is_the_brute_force_count(make, mixed, monkeypatch):
+    """The cost estimate's nonzeros (dof^2 (nodes + degrees) for one DOF count,
+    chunked sums for mixed counts, here in chunks of 2 nodes) against the
+    count over every owned node's row, node by node."""
+    from solver.partitions import partitioning
+    mdl = make()
+    g = mdl.graph()
+    counts = mdl.dofmap.counts
+    owned = np.arange(0, mdl.n_nodes, 3 if mdl.n_nodes > 30 else 1)
+    brute = sum(int(counts[i]) * (int(counts[i]) + int(counts[g.row(i)].sum())) for i in owned)
+    monkeypatch.setattr(partitioning, "NONZERO_CHUNK", 2)
+    assert partitioning.owned_nonzeros(g, owned, mdl.dofmap) == brute > 0
+    assert (mdl.dofmap.block is None) == mixed == (len(np.unique(counts)) > 1)

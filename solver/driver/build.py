@@ -114,6 +114,7 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
     if mdl is not None and say is not _silent:
         for line in element_steps.lines(scene, mdl):
             say(f"[solver]   {line}")
+        release()                   # the element steps of every cell and bond
     scheme = scheme_cls.build(scene, mdl, comm, say)
     if scene.balance == "measured":          # timed, then kept or built again on other ranks
         scheme = balance.balanced(scene, scheme_cls, scheme, mdl, comm, say)

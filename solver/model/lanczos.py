@@ -59,7 +59,8 @@ def start(ids: np.ndarray) -> np.ndarray:
 
 def largest(apply, x0: np.ndarray, k: int, comm=None) -> tuple[float, int]:
     """(largest Ritz value after ``k`` Lanczos steps, steps taken) for the
-    symmetric PSD operator ``apply`` from start rows ``x0`` (this rank's),
+    symmetric PSD operator ``apply`` (returning a new array, which is then
+    updated in place) from start rows ``x0`` (this rank's),
     dot products summed over ``comm`` (an mpi4py communicator, or None for
     one process).  Fewer steps when the Krylov space is exhausted (then theta
     is exact); NaN when the operator produced NaN or inf; 0 for a start
@@ -77,13 +78,14 @@ def largest(apply, x0: np.ndarray, k: int, comm=None) -> tuple[float, int]:
         return 0.0, 0
     q = x0 / norm
     q_prev = np.zeros_like(q)
+    tmp = np.empty_like(q)                    # the products, in place: no temporaries
     alphas, betas = [], []
     beta = 0.0
     for j in range(1, k + 1):
         w = apply(q)
         alpha = dot(q, w)
-        w -= alpha * q
-        w -= beta * q_prev
+        w -= np.multiply(alpha, q, out=tmp)
+        w -= np.multiply(beta, q_prev, out=tmp)
         beta = math.sqrt(max(dot(w, w), 0.0)) if np.isfinite(alpha) else math.nan
         if not (np.isfinite(alpha) and np.isfinite(beta)):
             return math.nan, j
@@ -92,7 +94,8 @@ def largest(apply, x0: np.ndarray, k: int, comm=None) -> tuple[float, int]:
         if j == k or beta <= 1e-13 * scale:       # done, or an invariant subspace
             break
         betas.append(beta)
-        q_prev, q = q, w / beta
+        w /= beta
+        q_prev, q = q, w
     if len(alphas) == 1:
         return alphas[0], 1
     theta = eigh_tridiagonal(np.array(alphas), np.array(betas[:len(alphas) - 1]),

@@ -65,26 +65,25 @@ def derive(graph, partitions, n_layers) -> list[Layout]:
 
     graph: the node graph (:class:`solver.model.graph.Graph`); partitions:
     objects with ``name`` and ``nodes``; n_layers: number of external layers of
-    each partition.
+    each partition.  The neighbour lists are read ``CHUNK`` nodes at a time:
+    no array as long as the graph's edges is made (a row index and an owner
+    per edge were 300 MB of rank 0's planning peak on the 2.27 M-DOF bar).
     """
     n = graph.n_nodes
     owner = owner_map(n, partitions)
-    indptr, col = graph
-    row = np.repeat(np.arange(n), np.diff(indptr))
     layouts = []
     for p, part in enumerate(partitions):
         owned = np.unique(np.asarray(part.nodes, dtype=np.int64))
-        foreign = np.zeros(n, bool)                       # nodes with a neighbour of another owner
-        foreign[row[owner[col] != p]] = True
-        is_b = foreign[owned]
+        is_b = np.concatenate([_any_other(graph, owned[s:s + CHUNK], owner, p)
+                               for s in range(0, owned.size, CHUNK)] or [np.zeros(0, bool)])
         seen = np.zeros(n, bool)
         seen[owned] = True
         front, layers = owned, []
         for _ in range(n_layers[p]):
-            in_front = np.zeros(n, bool)
-            in_front[front] = True
-            nxt = np.unique(col[in_front[row]])
-            layer = nxt[~seen[nxt]]
+            reach = np.zeros(n, bool)
+            for s in range(0, front.size, CHUNK):
+                reach[graph.rows(front[s:s + CHUNK])] = True
+            layer = np.flatnonzero(reach & ~seen)
             if not layer.size:
                 break
             layers.append(layer)
@@ -94,6 +93,19 @@ def derive(graph, partitions, n_layers) -> list[Layout]:
         layouts.append(Layout(part.name, p, owned, owned[is_b], owned[~is_b], tuple(layers),
                               owner[ext]))
     return layouts
+
+
+CHUNK = 65536                   # nodes whose neighbour lists derive reads at a time
+
+
+def _any_other(graph, nodes, owner, p) -> np.ndarray:
+    """Whether each of ``nodes`` has a neighbour not owned by partition ``p``."""
+    deg = graph.degree(nodes)
+    other = (owner[graph.rows(nodes)] != p).astype(np.int32)
+    if not other.size:
+        return np.zeros(nodes.size, bool)
+    hits = np.add.reduceat(other, np.minimum(np.cumsum(deg) - deg, other.size - 1))
+    return (hits > 0) & (deg > 0)               # reduceat reads the next row for an empty one
 
 
 def layer_counts(partitions, treatments) -> list[int]:

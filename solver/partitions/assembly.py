@@ -79,9 +79,10 @@ def matrix(block_sets, number, n_local: int, n_global: int, first: int, dofmap, 
     rank holds the ``n_local`` nodes from node ``first``.  ``block_sets``: a
     callable that yields (conn, Ke) block sets (called twice); ``diagonal``:
     values added to this rank's diagonal (e.g. the mass of K_eff); ``graph``: the
-    node :class:`~solver.model.graph.Graph` covering every block, which preallocates
-    AIJ and BAIJ without a pass over the elements (otherwise PETSc's
-    MATPREALLOCATOR does).  Nodes with equal DOF counts are inserted by blocks
+    node :class:`~solver.model.graph.Graph` covering every block, or the
+    :func:`graph_nonzeros` it gives for these rows, which preallocates AIJ and
+    BAIJ without a pass over the elements (otherwise PETSc's MATPREALLOCATOR
+    does).  Nodes with equal DOF counts are inserted by blocks
     (block size = the count); mixed counts make a scalar AIJ matrix."""
     if isinstance(dofmap, (int, np.integer)):
         return _matrix(block_sets, number, n_local, n_global, first, int(dofmap), comm, prefix,
@@ -158,7 +159,10 @@ def _matrix(block_sets, number, n_local, n_global, first, dof, comm, prefix, sca
     lo, hi = first, first + n_local
     kind = A.getType()
     if graph is not None and "sbaij" not in kind and ("baij" in kind or "aij" in kind):
-        d_nnz, o_nnz = _graph_nnz(graph, number, lo, hi)
+        d_nnz, o_nnz = graph if isinstance(graph, tuple) else graph_nonzeros(graph, number, lo, hi)
+        if d_nnz.size != hi - lo:
+            raise ValueError(f"{prefix}: preallocation for {d_nnz.size} block rows, "
+                             f"the matrix has {hi - lo}")
         if "baij" not in kind:                   # AIJ counts scalar rows
             d_nnz, o_nnz = np.repeat(d_nnz * dof, dof), np.repeat(o_nnz * dof, dof)
         A.setPreallocationNNZ((d_nnz.astype(P.IntType), o_nnz.astype(P.IntType)))
@@ -194,8 +198,11 @@ def _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, sca
     return _finish(A, lambda M: insert(M, scale), diagonal, wanted, prefix, P)
 
 
-def _graph_nnz(graph, number, lo, hi):
-    """Block nonzeros per block row in and off the diagonal block, rows lo..hi-1."""
+def graph_nonzeros(graph, number, lo, hi):
+    """Block nonzeros per block row in and off the diagonal block, rows lo..hi-1
+    (``graph``: the node :class:`~solver.model.graph.Graph`; ``number``: node ->
+    matrix node).  What :func:`matrix` takes for ``graph`` once the graph is
+    gone."""
     mine = np.flatnonzero((number >= lo) & (number < hi))
     nodes = np.empty(hi - lo, dtype=np.int64)
     nodes[number[mine] - lo] = mine

@@ -108,7 +108,7 @@ class Partition:
         self.spec = spec
         # the partition over the ranks of ``comm``; ``layout`` is this rank's piece
         self.dist = dist if dist is not None else whole(layout, model.n_nodes)
-        self.graph = graph          # node adjacency (indptr, indices): preallocation
+        self.graph = graph          # node Graph, or its graph_nonzeros for this piece: preallocation
         self.name = spec.name
         self.prefix = f"{spec.name}_"
         self.layout = layout = self.dist.pieces[0] if dist is None else layout

@@ -16,6 +16,7 @@ import numpy as np
 from solver.collective import agree, on_root, scatter_each
 from solver.memory import release
 from solver.partitions import distribute, integrators
+from solver.partitions.assembly import graph_nonzeros
 from solver.model import layout as overlap
 from solver.partitions import ranks
 from solver.partitions import stability
@@ -111,14 +112,20 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
         say(line)
     refuse(scene, decided.problems, say, sides=decided.freqs)
     comms = ranks.communicators(comm, assignment)
+    # each piece's preallocation, then the graph rows go before any matrix exists
+    pieces = {p: distribute.piece_on(dists, assignment, p, rank)
+              for p in assignment.partitions_on(rank)}
+    nonzeros = {p: graph_nonzeros(graph, dists[p].number, pc.start, pc.start + pc.n_held)
+                for p, pc in pieces.items()}
+    del graph
+    release()
     parts, error, name = [], None, "?"
     try:
-        for p in assignment.partitions_on(rank):
-            piece = distribute.piece_on(dists, assignment, p, rank)
+        for p, piece in pieces.items():
             name = scene.partitions[p].name
             parts.append(PARTITION_TYPES[scene.partitions[p].method](
                 scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
-                scene.damping, dist=dists[p], graph=graph))
+                scene.damping, dist=dists[p], graph=nonzeros.pop(p)))
     except SolverError as e:
         error = e
     except Exception as e:                      # noqa: BLE001 -- PETSc errors from options
@@ -126,10 +133,9 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
     try:
         agree(comm, error)
         for part in parts:
-            part.graph = None        # preallocation done: the graph rows are not kept
-        del graph
-        release()
+            part.graph = None        # preallocation done
         check_large(scene, parts, freqs, comm, say)
+        release()                    # the stability estimates' vectors
         refuse(scene, scene.scheme.built_problems(scene, freqs), say, freqs,
                dropped=scene.scheme.dropped)
     except BaseException:
@@ -187,13 +193,25 @@ def check_large(scene, parts, freqs, comm, say):
 def owned_nonzeros(graph, owned, dofmap) -> int:
     """Nonzeros of the owned rows of a partition's operator over the node graph
     (:class:`~solver.model.graph.Graph`): a node's DOFs times those of itself and
-    its neighbours."""
+    its neighbours.  With one DOF count for all nodes that is dof^2 (nodes +
+    their degrees); otherwise summed over chunks of nodes, so the neighbour
+    lists copied at a time stay small (the whole dem partition's at once were
+    a quarter of a GB of rank 0's planning on the 2.27 M-DOF bar)."""
+    owned = np.asarray(owned, dtype=np.int64)
+    if dofmap.block is not None:
+        return int(dofmap.block ** 2 * (owned.size + int(graph.degree(owned).sum())))
     counts = dofmap.counts
-    deg = graph.degree(owned)
-    cols = graph.rows(owned)
-    reach = np.bincount(np.repeat(np.arange(owned.size), deg), weights=counts[cols],
-                        minlength=owned.size) + counts[owned]
-    return int((counts[owned] * reach).sum())
+    total = 0
+    for s in range(0, owned.size, NONZERO_CHUNK):
+        nodes = owned[s:s + NONZERO_CHUNK]
+        deg = graph.degree(nodes)
+        reach = np.bincount(np.repeat(np.arange(nodes.size), deg),
+                            weights=counts[graph.rows(nodes)], minlength=nodes.size) + counts[nodes]
+        total += int((counts[nodes] * reach).sum())
+    return total
+
+
+NONZERO_CHUNK = 65536           # nodes whose neighbour lists owned_nonzeros copies at a time
 
 
 # Measured on 2D bars (docs/benchmarks/papers.md, "Stability at larger η"): an implicit partition

@@ -41,6 +41,7 @@ from solver.model import lanczos
 from solver.partitions import integrators
 from solver.model.dofmap import DofMap
 from solver.partitions.assembly import triplets
+from solver.memory import release
 from solver.petscutil import vec_on, init
 from solver.partitions.contact import coordination, bound_stiffness
 
@@ -160,6 +161,7 @@ def from_operator(Kneg, mass: np.ndarray, still: np.ndarray, ids: np.ndarray,
         s = scales(mass, still, diag, name)
     except Exception as e:           # noqa: BLE001 -- every rank learns it, then raises
         error, s = e, np.zeros(mass.size)
+    del diag
     errors = [e for e in comm.allgather(error) if e is not None]
     if errors:
         raise errors[0]
@@ -167,6 +169,7 @@ def from_operator(Kneg, mass: np.ndarray, still: np.ndarray, ids: np.ndarray,
         return Frequency(0.0, NOTHING)
     n_free = comm.allreduce(int(np.count_nonzero(s)))
     ger = gershgorin(Kneg, mass, s == 0).omega_max ** 2
+    release()                        # the row chunks' copies, before the Lanczos vectors
     x, y = np.zeros(mass.size), np.zeros(mass.size)
     X, Y = vec_on(x, Kneg.getComm()), vec_on(y, Kneg.getComm())
 
@@ -190,7 +193,9 @@ def _or():
     return MPI.LOR
 
 
-ROWS_PER_CHUNK = 60000      # rows of the operator scaled at a time by gershgorin
+ROWS_PER_CHUNK = 30000      # rows of the operator scaled at a time by gershgorin (a chunk of
+#   60,000 rows of a lattice was 70 MB, the peak of a dem rank of the 2.27 M-DOF bar; each
+#   chunk costs a pass over the columns: 12,000 took 2.5 x as long)
 
 
 def gershgorin(Kneg, mass: np.ndarray, fixed: np.ndarray) -> Frequency:
