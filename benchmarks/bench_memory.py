@@ -131,14 +131,17 @@ def rank0_breakdown(a, T, size) -> list[str]:
     from solver.coupling.schemes import scheme_class
     from solver.model import arrays as model_mod, binding, data, layout
     from solver.partitions import partitioning
+    from solver.memory import release
     from solver.petscutil import init
     init([])
     rows = [("imports, PETSc", None, rss_mb())]
-    store = data.ModelData()
+    store = data.ModelData(keep=False)          # as the command line's: one run
     scene = binding.load(SCENE, sets(a, T, 10), store)
-    rows.append(("mesh (kept for field output)", footprint(store), rss_mb()))
+    rows.append(("mesh (let go once the model is built)", footprint(store), rss_mb()))
     treatments = scheme_class(scene.coupling.scheme).treatments(scene)
     mdl = model_mod.build(scene, layout.layer_counts(scene.partitions, treatments), store)
+    store.built()
+    release()
     n = mdl.n_nodes
     node = mdl.points.nbytes + mdl.mass.nbytes + mdl.fixed.nbytes + mdl.u0.nbytes + mdl.v0.nbytes
     rows.append(("model: per-node arrays (points, mass, fixed, u0, v0)", node, None))
