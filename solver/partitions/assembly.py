@@ -18,6 +18,7 @@ import numpy as np
 
 from solver.petscutil import init
 from solver.errors import SceneError
+from solver.model.graph import Graph
 
 CHUNK = 2048          # elements per insertion call (bounds the temporaries)
 
@@ -159,7 +160,8 @@ def _matrix(block_sets, number, n_local, n_global, first, dof, comm, prefix, sca
     lo, hi = first, first + n_local
     kind = A.getType()
     if graph is not None and "sbaij" not in kind and ("baij" in kind or "aij" in kind):
-        d_nnz, o_nnz = graph if isinstance(graph, tuple) else graph_nonzeros(graph, number, lo, hi)
+        d_nnz, o_nnz = (graph_nonzeros(graph, number, lo, hi) if isinstance(graph, Graph)
+                        else graph)
         if d_nnz.size != hi - lo:
             raise ValueError(f"{prefix}: preallocation for {d_nnz.size} block rows, "
                              f"the matrix has {hi - lo}")
