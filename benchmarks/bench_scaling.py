@@ -113,8 +113,8 @@ def main():
              ("monolithic FEM, 1 rank", 1, overrides(args.a, args.steps, monolithic=True)),
              ("monolithic FEM, 2 ranks", 2, overrides(args.a, args.steps, monolithic=True))]
     for rnd in range(args.repeat):           # rounds: each configuration once per round
-        for label, n, sets in plan:
-            out = tmp / f"run{len(plan) * rnd + len(runs.get(label, []))}_{n}.h5"
+        for i, (label, n, sets) in enumerate(plan):
+            out = tmp / f"round{rnd}_run{i}.h5"
             # multi-rank runs: a barrier before each exchange separates the wait for the
             # slower rank from the exchange itself
             r = run_one(SCENE, n, sets, out, ["-exchange_measure_wait"] if n > 1 else [])

@@ -166,11 +166,12 @@ class StressProbes:
 
 
 def probe_rows(S, rows):
-    """(The block rows holding rows ``rows`` (local indices of this rank's) of the
-    square partition operator ``S`` as their own matrix, with S's column layout;
-    where each of ``rows`` is in it) (collective; S is destroyed): a MatMult then costs the probes' entries, not a pass over every
-    row of the partition (3.7 ms per system step for two probes on the 1.15 M-DOF
-    bar, 8 % of its 1-rank step, before)."""
+    """(A matrix of the block rows of the square partition operator ``S`` that
+    hold ``rows`` (this rank's local indices), with S's column layout; where
+    each of ``rows`` is in it).  Collective; S is destroyed.  A MatMult then
+    costs the probes' entries, not a pass over every row of the partition
+    (3.7 ms per system step for two probes on the 1.15 M-DOF bar, 8 % of its
+    1-rank step, before)."""
     P = init()
     lo = S.getOwnershipRange()[0]
     clo, chi = S.getOwnershipRangeColumn()

@@ -74,6 +74,17 @@ class Graph(NamedTuple):
         nodes = np.asarray(nodes, dtype=np.int64)
         return self.indices[ranges(self.indptr[nodes], self.degree(nodes))]
 
+    def neighbour_sums(self, nodes, values, chunk: int = 65536) -> np.ndarray:
+        """Sum of ``values`` [n_nodes] over each of ``nodes``' neighbours, read
+        ``chunk`` nodes at a time (no array as long as all their edges)."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        out = np.zeros(nodes.size)
+        for s in range(0, nodes.size, chunk):
+            part = nodes[s:s + chunk]
+            out[s:s + chunk] = np.bincount(np.repeat(np.arange(part.size), self.degree(part)),
+                                           weights=values[self.rows(part)], minlength=part.size)
+        return out
+
     def restrict(self, nodes) -> "Graph":
         """The same node numbering with only the rows of ``nodes`` filled."""
         nodes = np.unique(np.asarray(nodes, dtype=np.int64))

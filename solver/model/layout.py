@@ -74,8 +74,7 @@ def derive(graph, partitions, n_layers) -> list[Layout]:
     layouts = []
     for p, part in enumerate(partitions):
         owned = np.unique(np.asarray(part.nodes, dtype=np.int64))
-        is_b = np.concatenate([_any_other(graph, owned[s:s + CHUNK], owner, p)
-                               for s in range(0, owned.size, CHUNK)] or [np.zeros(0, bool)])
+        is_b = graph.neighbour_sums(owned, owner != p, CHUNK) > 0
         seen = np.zeros(n, bool)
         seen[owned] = True
         front, layers = owned, []
@@ -96,16 +95,6 @@ def derive(graph, partitions, n_layers) -> list[Layout]:
 
 
 CHUNK = 65536                   # nodes whose neighbour lists derive reads at a time
-
-
-def _any_other(graph, nodes, owner, p) -> np.ndarray:
-    """Whether each of ``nodes`` has a neighbour not owned by partition ``p``."""
-    deg = graph.degree(nodes)
-    other = (owner[graph.rows(nodes)] != p).astype(np.int32)
-    if not other.size:
-        return np.zeros(nodes.size, bool)
-    hits = np.add.reduceat(other, np.minimum(np.cumsum(deg) - deg, other.size - 1))
-    return (hits > 0) & (deg > 0)               # reduceat reads the next row for an empty one
 
 
 def layer_counts(partitions, treatments) -> list[int]:

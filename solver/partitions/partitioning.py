@@ -193,25 +193,16 @@ def check_large(scene, parts, freqs, comm, say):
 def owned_nonzeros(graph, owned, dofmap) -> int:
     """Nonzeros of the owned rows of a partition's operator over the node graph
     (:class:`~solver.model.graph.Graph`): a node's DOFs times those of itself and
-    its neighbours.  With one DOF count for all nodes that is dof^2 (nodes +
-    their degrees); otherwise summed over chunks of nodes, so the neighbour
-    lists copied at a time stay small (the whole dem partition's at once were
-    a quarter of a GB of rank 0's planning on the 2.27 M-DOF bar)."""
-    owned = np.asarray(owned, dtype=np.int64)
-    if dofmap.block is not None:
-        return int(dofmap.block ** 2 * (owned.size + int(graph.degree(owned).sum())))
+    its neighbours (the neighbours read in chunks: the whole dem partition's
+    lists at once were a quarter of a GB of rank 0's planning on the 2.27 M-DOF
+    bar)."""
     counts = dofmap.counts
-    total = 0
-    for s in range(0, owned.size, NONZERO_CHUNK):
-        nodes = owned[s:s + NONZERO_CHUNK]
-        deg = graph.degree(nodes)
-        reach = np.bincount(np.repeat(np.arange(nodes.size), deg),
-                            weights=counts[graph.rows(nodes)], minlength=nodes.size) + counts[nodes]
-        total += int((counts[nodes] * reach).sum())
-    return total
+    owned = np.asarray(owned, dtype=np.int64)
+    reach = graph.neighbour_sums(owned, counts, NONZERO_CHUNK) + counts[owned]
+    return int((counts[owned] * reach).sum())
 
 
-NONZERO_CHUNK = 65536           # nodes whose neighbour lists owned_nonzeros copies at a time
+NONZERO_CHUNK = 65536           # nodes whose neighbour lists owned_nonzeros reads at a time
 
 
 # Measured on 2D bars (docs/benchmarks/papers.md, "Stability at larger η"): an implicit partition
