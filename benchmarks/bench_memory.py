@@ -153,7 +153,7 @@ def rank0_breakdown(a, T, size) -> list[str]:
     del graph
     t0 = time.perf_counter()
     plan, shares = partitioning.plan(scene, mdl, size, treatments)
-    graph, _ = next(shares)
+    next(shares)                             # rank 0's: the whole model
     rows.append((f"layouts, distributions, RCM orders (planned in {time.perf_counter() - t0:.1f} s)",
                  None, rss_mb()))
     rows.append(("layouts", footprint(plan.layouts), None))
@@ -162,13 +162,12 @@ def rank0_breakdown(a, T, size) -> list[str]:
     rows.append(("distributions: pieces", footprint(plan.dists) - numbers, None))
     seen = set()                             # what rank 0 holds anyway: not the shares'
     footprint(mdl, seen)
-    footprint(graph, seen)
     largest, sent = 0, 0
     for share in shares:                     # made, pickled and dropped one at a time, as sent
         largest = max(largest, footprint(share, set(seen)))
         sent = max(sent, len(pickle.dumps(share, protocol=5, buffer_callback=lambda b: None)))
         del share
-    rows.append((f"largest share of ranks 1..{size - 1} (graph rows, cells, bonds)", largest,
+    rows.append((f"largest share of ranks 1..{size - 1} (cells and bonds)", largest,
                  None))
     rows.append((f"largest share of ranks 1..{size - 1}, pickled in band (pickle 5 as "
                  "mpi4py.util.pkl5 sends it: the arrays travel from their own memory)", sent,

@@ -107,7 +107,7 @@ class GravouilCombescure(OwnSides):
         built = self._build(scene, plan, shares)
         self.A, self.B = built.get(a), built.get(b)
         self.parts = [built[p] for p in sorted(built)]
-        self.models = {built[p].name: shares[p][0] for p in built}
+        self.models = {built[p].name: shares[p] for p in built}
         self.m = scene.system_ratio // specs[a].ratio
         ni = self.ni = iface.size
         self._ga = specs[a].gamma * (specs[a].ratio * scene.time.dt)   # gamma h of A
@@ -151,12 +151,11 @@ class GravouilCombescure(OwnSides):
         self.freqs, built, error, name = dict(plan.freqs), {}, None, "?"
         try:
             for p in plan.assignment.partitions_on(comm.rank):
-                spec, (model, graph) = scene.partitions[p], shares[p]
+                spec, model = scene.partitions[p], shares[p]
                 name = spec.name
                 piece = distribute.piece_on(plan.dists, plan.assignment, p, comm.rank)
                 built[p] = FemPartition(spec, piece, model, comms[p], "literal", scene.time.dt, R,
-                                        scene.damping, dist=plan.dists[p], graph=graph)
-                built[p].graph = None            # preallocation done
+                                        scene.damping, dist=plan.dists[p])
         except SolverError as e:
             error = e
         except Exception as e:                   # noqa: BLE001 -- PETSc errors from options

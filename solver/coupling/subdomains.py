@@ -14,7 +14,8 @@ estimated cost, ``partitions[].ranks`` honoured, or the assignment given by
 (:func:`solver.partitions.distribute.split`: RCM order cut into slabs; on one
 rank the node order of the single-rank scheme) and the dense stability check
 of each subdomain.  Every rank gets the plan and only its share: the springs
-of its subdomain that touch its nodes and their graph rows.
+of its subdomain that touch its nodes (each matrix is preallocated from the
+blocks it holds).
 """
 from __future__ import annotations
 
@@ -76,8 +77,8 @@ class Plan:
 
 
 def plan(scene, mdl, size: int, assignment=None):
-    """On rank 0, with the whole model: (Plan, [(its shares {partition: (model,
-    graph)}, the model the scheme keeps)] for every rank).  An unstable step
+    """On rank 0, with the whole model: (Plan, [(its shares {partition: model}, the
+    model the scheme keeps)] for every rank).  An unstable step
     raises StabilityError (the dense check; ``NOTE`` appended)."""
     models, lays, iface, (a, b) = subdomains(scene, mdl)
     specs = scene.partitions
@@ -99,18 +100,18 @@ def plan(scene, mdl, size: int, assignment=None):
         if problem:
             raise StabilityError(f"{problem} ({NOTE})")
         freqs[specs[p].name] = (fr, crit)
-    shares = [({p: (model[p], graphs[p]) for p in assignment.partitions_on(0)}, mdl)]
+    shares = [({p: model[p] for p in assignment.partitions_on(0)}, mdl)]
     for r in range(1, size):
         mine = {}
         for p in assignment.partitions_on(r):
             nodes = distribute.piece_on(dists, assignment, p, r).held
-            mine[p] = (model[p].share(nodes), graphs[p].restrict(nodes))
+            mine[p] = model[p].share(nodes)
         shares.append((mine, mdl.share(distribute.held_on(dists, assignment, r))))
     return Plan((a, b), iface, layouts, assignment, dists, freqs), shares
 
 
 def place(scene, mdl, comm, assignment=None):
-    """Collective: (the Plan, this rank's shares {partition: (model, graph)}, the
+    """Collective: (the Plan, this rank's shares {partition: model}, the
     model this rank keeps).  ``mdl``: the whole model on rank 0, None elsewhere."""
     decided, shares = on_root(comm, plan, scene, mdl, comm.size, assignment,
                               share=False) or (None, None)

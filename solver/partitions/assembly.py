@@ -6,8 +6,11 @@ to the ground).  A *block set* is ``(conn [n_el, k], Ke [n_el, nd, nd])``
 with ``conn`` in node numbers and nd the DOFs of an element's nodes
 (:mod:`solver.model.dofmap`); :func:`matrix` inserts them with
 MatSetValuesBlocked when every node has the same DOF count (MatSetValues
-otherwise), preallocated by PETSc's MATPREALLOCATOR, each rank only
-its own rows (other rows are passed as -1, which PETSc skips).  Matrix types
+otherwise), each rank only its own rows (other rows are passed as -1, which
+PETSc skips).  AIJ and BAIJ are preallocated from the blocks' own pattern
+(:func:`block_nonzeros`: exactly the blocks a matrix holds, so a lattice's
+operator does not reserve the mesh cells' wider rows); other types, and
+scalar rows of mixed DOF counts, by PETSc's MATPREALLOCATOR.  Matrix types
 that the AIJ family's preallocation does not cover (SELL, dense, ...) are
 assembled as AIJ and converted with MatConvert, so every type holds the same
 values.
@@ -18,7 +21,6 @@ import numpy as np
 
 from solver.petscutil import init
 from solver.errors import SceneError
-from solver.model.graph import Graph
 
 CHUNK = 2048          # elements per insertion call (bounds the temporaries)
 
@@ -72,25 +74,22 @@ def default_type(dof, solved: bool = False) -> str:
 
 
 def matrix(block_sets, number, n_local: int, n_global: int, first: int, dofmap, comm,
-           prefix: str, scale: float = 1.0, diagonal=None, mat_type: str = "aij", graph=None):
+           prefix: str, scale: float = 1.0, diagonal=None, mat_type: str = "aij"):
     """Square matrix (type ``mat_type`` unless the options say otherwise) over
     the ``n_global`` nodes of the node numbering ``number`` (node -> matrix node,
     -1: not in the matrix), each with the DOFs of ``dofmap`` (a
     :class:`~solver.model.dofmap.DofMap`, or a DOF count for all nodes); this
     rank holds the ``n_local`` nodes from node ``first``.  ``block_sets``: a
     callable that yields (conn, Ke) block sets (called twice); ``diagonal``:
-    values added to this rank's diagonal (e.g. the mass of K_eff); ``graph``: the
-    node :class:`~solver.model.graph.Graph` covering every block, or the
-    :func:`graph_nonzeros` it gives for these rows, which preallocates AIJ and
-    BAIJ without a pass over the elements (otherwise PETSc's MATPREALLOCATOR
-    does).  Nodes with equal DOF counts are inserted by blocks
+    values added to this rank's diagonal (e.g. the mass of K_eff).  Nodes
+    with equal DOF counts are inserted by blocks
     (block size = the count); mixed counts make a scalar AIJ matrix."""
     if isinstance(dofmap, (int, np.integer)):
         return _matrix(block_sets, number, n_local, n_global, first, int(dofmap), comm, prefix,
-                       scale, diagonal, mat_type, graph)
+                       scale, diagonal, mat_type)
     if dofmap.block is not None:
         return _matrix(block_sets, number, n_local, n_global, first, dofmap.block, comm, prefix,
-                       scale, diagonal, mat_type, graph)
+                       scale, diagonal, mat_type)
     return _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, scale,
                           diagonal, mat_type)
 
@@ -152,19 +151,15 @@ def _finish(A, insert, diagonal, wanted, prefix, P):
 
 
 def _matrix(block_sets, number, n_local, n_global, first, dof, comm, prefix, scale, diagonal,
-            mat_type, graph):
+            mat_type):
     """Every node with ``dof`` DOFs: blocks of dof x dof."""
     P = init()
     sizes = ((n_local * dof, n_global * dof), (n_local * dof, n_global * dof))
     A, wanted = _create(comm, sizes, dof, mat_type, prefix)
     lo, hi = first, first + n_local
     kind = A.getType()
-    if graph is not None and "sbaij" not in kind and ("baij" in kind or "aij" in kind):
-        d_nnz, o_nnz = (graph_nonzeros(graph, number, lo, hi) if isinstance(graph, Graph)
-                        else graph)
-        if d_nnz.size != hi - lo:
-            raise ValueError(f"{prefix}: preallocation for {d_nnz.size} block rows, "
-                             f"the matrix has {hi - lo}")
+    if "sbaij" not in kind and ("baij" in kind or "aij" in kind):
+        d_nnz, o_nnz = block_nonzeros(block_sets(), number, lo, hi, n_global)
         if "baij" not in kind:                   # AIJ counts scalar rows
             d_nnz, o_nnz = np.repeat(d_nnz * dof, dof), np.repeat(o_nnz * dof, dof)
         A.setPreallocationNNZ((d_nnz.astype(P.IntType), o_nnz.astype(P.IntType)))
@@ -200,21 +195,47 @@ def _scalar_matrix(block_sets, number, n_local, first, dofmap, comm, prefix, sca
     return _finish(A, lambda M: insert(M, scale), diagonal, wanted, prefix, P)
 
 
-def graph_nonzeros(graph, number, lo, hi):
-    """Block nonzeros per block row in and off the diagonal block, rows lo..hi-1
-    (``graph``: the node :class:`~solver.model.graph.Graph`; ``number``: node ->
-    matrix node).  What :func:`matrix` takes for ``graph`` once the graph is
-    gone."""
-    mine = np.flatnonzero((number >= lo) & (number < hi))
-    nodes = np.empty(hi - lo, dtype=np.int64)
-    nodes[number[mine] - lo] = mine
-    deg = graph.degree(nodes)
-    cols = number[graph.rows(nodes)]
-    row = np.repeat(np.arange(hi - lo), deg)
-    inside = cols >= 0
-    diag = inside & (cols >= lo) & (cols < hi)
-    d = np.bincount(row[diag], minlength=hi - lo) + 1            # + the node itself
-    o = np.bincount(row[inside & ~diag], minlength=hi - lo)
+def block_nonzeros(block_sets, number, lo, hi, n_global, chunk: int = 32768):
+    """(d_nnz, o_nnz): block nonzeros of block rows lo..hi-1 in and off the
+    diagonal block, from the pattern of the block sets themselves (``number``:
+    node -> matrix node, -1: not in the matrix) plus every row's diagonal.
+    Only the elements with a row here count; the pattern is the sparse product
+    R^T C of their incidence matrices (R: the rows here), taken ``chunk`` rows
+    at a time, so that its temporaries stay a few MB whatever the rank holds;
+    no element matrix is computed."""
+    from scipy.sparse import csr_matrix, eye   # lazy: scipy loads only where it is used
+    n = hi - lo
+    conns = []
+    for conn, _ in block_sets:
+        for s in range(0, len(conn), 65536):
+            c = number[np.asarray(conn[s:s + 65536])]
+            mine = ((c >= lo) & (c < hi)).any(axis=1)
+            if mine.any():
+                conns.append(c[mine])
+    d, o = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    C = None
+    if conns:
+        itype = np.int32 if max(n_global, sum(c.size for c in conns)) < 2 ** 31 else np.int64
+        el = np.concatenate([np.repeat(np.arange(len(c), dtype=itype), c.shape[1]) for c in conns])
+        el += np.repeat(np.cumsum([0] + [len(c) for c in conns[:-1]]).astype(itype),
+                        [c.size for c in conns])
+        col = np.concatenate([c.ravel() for c in conns]).astype(itype, copy=False)
+        del conns
+        n_el = int(el[-1]) + 1
+        on = col >= 0
+        C = csr_matrix((np.ones(int(on.sum()), bool), (el[on], col[on])), shape=(n_el, n_global))
+        row = (col >= lo) & (col < hi)
+        Rt = csr_matrix((np.ones(int(row.sum()), bool), (col[row] - lo, el[row])), shape=(n, n_el))
+        del el, col, on, row
+    for a in range(0, n, chunk):
+        b = min(a + chunk, n)
+        pattern = eye(b - a, n_global, k=lo + a, dtype=bool, format="csr")
+        if C is not None:
+            pattern = pattern + Rt[a:b] @ C
+        counts = np.diff(pattern.indptr)
+        inside = (pattern.indices >= lo) & (pattern.indices < hi)
+        d[a:b] = np.bincount(np.repeat(np.arange(b - a), counts), weights=inside, minlength=b - a)
+        o[a:b] = counts - d[a:b]
     return d, o
 
 

@@ -104,11 +104,10 @@ class Partition:
     vt = _work_vec("vt")
 
     def __init__(self, spec, layout, model, comm, treatment: str, base_dt: float,
-                 system_ratio: int, damping=None, dist=None, graph=None):
+                 system_ratio: int, damping=None, dist=None):
         self.spec = spec
         # the partition over the ranks of ``comm``; ``layout`` is this rank's piece
         self.dist = dist if dist is not None else whole(layout, model.n_nodes)
-        self.graph = graph          # node Graph, or its graph_nonzeros for this piece: preallocation
         self.name = spec.name
         self.prefix = f"{spec.name}_"
         self.layout = layout = self.dist.pieces[0] if dist is None else layout
@@ -183,7 +182,7 @@ class Partition:
         element block sets (global node ids; see :mod:`solver.partitions.assembly`)."""
         return matrix(lambda: block_sets, self.dist.number, self.layout.n_held, self.dist.n_held,
                       self.layout.start, self.dofmap, self.comm, self.prefix, scale=scale,
-                      diagonal=diagonal, mat_type=default_type(self.dof, solved), graph=self.graph)
+                      diagonal=diagonal, mat_type=default_type(self.dof, solved))
 
     def whole_held(self):
         """Held nodes of the whole partition (all its pieces)."""

@@ -2,7 +2,8 @@
 
 ``build_partitions`` takes the model and the scheme's external-data
 treatments and returns everything a coupling scheme needs to run on this
-rank (rank 0 plans from the node graph and sends each rank its share): the partition layouts (global), the rank assignment, every partition's
+rank (rank 0 plans from the node graph and sends each rank its share): the
+partition layouts (global), the rank assignment, every partition's
 distribution over its ranks, this rank's partition pieces, and every
 partition's frequency and critical step.  Unstable steps are refused here,
 before stepping.
@@ -16,7 +17,6 @@ import numpy as np
 from solver.collective import agree, on_root, scatter_each
 from solver.memory import release
 from solver.partitions import distribute, integrators
-from solver.partitions.assembly import graph_nonzeros
 from solver.model import layout as overlap
 from solver.partitions import ranks
 from solver.partitions import stability
@@ -52,9 +52,9 @@ def plan(scene, mdl, size, treatments, assignment=None):
     layout, the rank assignment (by estimated cost, unless ``assignment`` is
     given: a :class:`~solver.partitions.ranks.Assignment` by measured cost),
     every partition's distribution over its ranks, the dense stability check,
-    and for every rank its share: the graph rows of the nodes it holds (its
-    preallocation) and the model's cells and bonds that touch them.  Returns
-    (Plan, the (graph rows, model share) of rank 0, 1, ... made one at a time)."""
+    and for every rank its share: the model's cells and bonds that touch the
+    nodes it holds.  Returns (Plan, the model shares of rank 0, 1, ... made
+    one at a time)."""
     R = scene.system_ratio
     graph = mdl.graph()
     layouts = overlap.derive(graph, scene.partitions,
@@ -67,22 +67,21 @@ def plan(scene, mdl, size, treatments, assignment=None):
     dists = [distribute.split(lay, graph, len(assignment.ranks[p]))
              for p, lay in enumerate(layouts)]
     freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
+    del graph                    # (the matrices are preallocated from their own blocks)
     return Plan(layouts, assignment, dists, freqs, problems), _shares(
-        graph, mdl, dists, assignment, size, [p.method for p in scene.partitions])
+        mdl, dists, assignment, size, [p.method for p in scene.partitions])
 
 
-def _shares(graph, mdl, dists, assignment, size, methods):
+def _shares(mdl, dists, assignment, size, methods):
     """Every rank's share, made when asked for (rank 0 holds one other rank's at a
-    time): rank 0 keeps the whole model (it writes fields) and, on several ranks,
-    the graph rows of its own nodes (the whole graph is dropped once every share
-    is made); rank r > 0 gets the graph rows and the model's cells and bonds of
-    the nodes it holds (no body cells where it steps no fem partition:
-    ``methods``, every partition's)."""
-    yield (graph.restrict(distribute.held_on(dists, assignment, 0)) if size > 1 else graph), mdl
+    time): rank 0 keeps the whole model (it writes fields); rank r > 0 gets the
+    model's cells and bonds of the nodes it holds (no body cells where it steps
+    no fem partition: ``methods``, every partition's)."""
+    yield mdl
     for r in range(1, size):
         held = distribute.held_on(dists, assignment, r)
         fem = any(methods[p] == "fem" for p in assignment.partitions_on(r))
-        yield graph.restrict(held), mdl.share(held, body_cells=fem)
+        yield mdl.share(held, body_cells=fem)
 
 
 def build_error(name: str, e: Exception) -> SceneError:
@@ -94,8 +93,8 @@ def build_error(name: str, e: Exception) -> SceneError:
 
 def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Partitions:
     """Rank 0 plans with the whole model (``mdl``; other ranks pass None); every
-    rank gets the plan's small arrays and only its share of the graph and the
-    model, then builds its pieces.  ``assignment``: the ranks to use instead of
+    rank gets the plan's small arrays and only its share of the model, then
+    builds its pieces.  ``assignment``: the ranks to use instead of
     those by estimated cost (:mod:`solver.driver.balance`)."""
     rank, size = comm.rank, comm.size
     R = scene.system_ratio
@@ -103,7 +102,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
                               share=False) or (None, None)
     if size > 1:
         decided = comm.bcast(decided)
-    graph, mdl = scatter_each(comm, shares) if size > 1 else next(shares)
+    mdl = scatter_each(comm, shares) if size > 1 else next(shares)
     del shares
     release()                    # rank 0: the whole graph and the planning temporaries
     layouts, assignment, dists, freqs = (decided.layouts, decided.assignment, decided.dists,
@@ -112,28 +111,20 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
         say(line)
     refuse(scene, decided.problems, say, sides=decided.freqs)
     comms = ranks.communicators(comm, assignment)
-    # each piece's preallocation, then the graph rows go before any matrix exists
-    pieces = {p: distribute.piece_on(dists, assignment, p, rank)
-              for p in assignment.partitions_on(rank)}
-    nonzeros = {p: graph_nonzeros(graph, dists[p].number, pc.start, pc.start + pc.n_held)
-                for p, pc in pieces.items()}
-    del graph
-    release()
     parts, error, name = [], None, "?"
     try:
-        for p, piece in pieces.items():
+        for p in assignment.partitions_on(rank):
             name = scene.partitions[p].name
+            piece = distribute.piece_on(dists, assignment, p, rank)
             parts.append(PARTITION_TYPES[scene.partitions[p].method](
                 scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
-                scene.damping, dist=dists[p], graph=nonzeros.pop(p)))
+                scene.damping, dist=dists[p]))
     except SolverError as e:
         error = e
     except Exception as e:                      # noqa: BLE001 -- PETSc errors from options
         error = build_error(name, e)
     try:
         agree(comm, error)
-        for part in parts:
-            part.graph = None        # preallocation done
         check_large(scene, parts, freqs, comm, say)
         release()                    # the stability estimates' vectors
         refuse(scene, scene.scheme.built_problems(scene, freqs), say, freqs,
