@@ -99,11 +99,12 @@ def run_scene(raw: dict, tmp_path: Path, comm=None):
 
 
 def stop_and_restart(raw: dict, tmp_path: Path, end: float, stop: float, every: int,
-                     energy_every: int = 10, n: int | None = None, before=None):
+                     energy_every: int = 10, n: int | None = None, before=None, restart=()):
     """Run ``raw`` through the CLI to ``end`` in one go ("whole") and to ``stop``
     ("short"), both with a checkpoint every ``every`` system steps, then restart
-    "short" to ``end`` (on ``n`` ranks); ``before(path)`` looks at the short
-    run's file before the restart.  Returns the paths of both outputs."""
+    "short" to ``end`` (on ``n`` ranks, with the command-line arguments
+    ``restart``); ``before(path)`` looks at the short run's file before the
+    restart.  Returns the paths of both outputs."""
     for name, t in (("whole", end), ("short", stop)):
         run = copy.deepcopy(raw)
         run["name"], run["time"]["end"] = name, t
@@ -115,7 +116,8 @@ def stop_and_restart(raw: dict, tmp_path: Path, end: float, stop: float, every: 
         before(tmp_path / "short.h5")
     run["time"]["end"] = end
     write_scene(tmp_path / "short.yaml", run)
-    proc = run_cli([tmp_path / "short.yaml", "--restart", tmp_path / "short.h5"], n=n, timeout=300)
+    proc = run_cli([tmp_path / "short.yaml", "--restart", tmp_path / "short.h5", *restart], n=n,
+                   timeout=300)
     assert proc.returncode == 0, proc.stderr
     return tmp_path / "whole.h5", tmp_path / "short.h5"
 

@@ -66,6 +66,7 @@ class _Scene:
     def __init__(self, *specs, steps=5):
         self.partitions, self.balance_steps = specs, steps
         self.coupling = type("C", (), {"scheme": "overlap"})
+        self.scheme = type("S", (), {"rides": True})
 
 
 def test_decide_from_constructed_walls():
@@ -188,7 +189,10 @@ def test_three_ranks_two_partitions_same_answers(tmp_path):
     launch(tmp_path, 3, runs)
     est, est_ranks, _ = histories(tmp_path / "estimated.h5")
     got, got_ranks, steps = histories(tmp_path / "measured.h5")
-    same, _, _ = histories(tmp_path / f"fixed{got_ranks[0]}{got_ranks[1]}.h5")
+    # a cheap partition may ride on a rank of the other's (ranks add up to 4):
+    # partitions[].ranks cannot ask for that, so there is no bitwise twin to read
+    rides = sum(got_ranks) > 3
+    same = None if rides else histories(tmp_path / f"fixed{got_ranks[0]}{got_ranks[1]}.h5")[0]
     log = (tmp_path / "measured.log").read_text()
     assert steps == {"p0": 20, "p1": 40}                   # the timed steps are not counted
     assert "[solver] balance: measured, each partition's wall per system step over 5" in log
@@ -200,7 +204,7 @@ def test_three_ranks_two_partitions_same_answers(tmp_path):
     assert ("the assignment changed" in log) == changed, log
     assert ("the assignment is unchanged" in log) == (not changed), log
     for key in est:
-        assert np.array_equal(got[key], same[key]), key
+        assert same is None or np.array_equal(got[key], same[key]), key
         assert rel(est[key], got[key]) <= 1e-12, key
 
 

@@ -54,6 +54,7 @@ class OwnSides(Scheme):
     taken literally."""
     exchanges = ()
     uses_external = False
+    rides = False               # each side on ranks of its own
 
     @staticmethod
     def treatments(scene) -> list[str]:

@@ -47,6 +47,8 @@ class Scheme:
     dropped = "running anyway"  # what running anyway gives up when built_problems are waived
     levels = False             # whether partitions: auto (one levelled partition) may use it
     assignment = None          # a built scheme's ranks.Assignment (None: placed by the scheme)
+    rides = True               # whether a cheap partition may run on a rank of another's
+    #                            (ranks.assign): its sides need not have ranks of their own
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -113,7 +113,8 @@ def decide(scene, before, n_owned, walls, failure, size: int):
     lines += _walls("before", names, before, wall, "")
     lines.append(_waits("before", [sum(w.values()) for w in walls]))
     costs = [ranks.measured_cost(wall[p], len(before.ranks[p])) for p in range(P)]
-    after = ranks.assign(size, costs, n_owned, [p.ranks for p in scene.partitions], "measured")
+    after = ranks.assign(size, costs, n_owned, [p.ranks for p in scene.partitions], "measured",
+                         ride=scene.scheme.rides)
     lines += after.lines(names)
     predicted = [c / len(rs) for c, rs in zip(costs, after.ranks)]
     lines += _walls("after", names, after, predicted, "predicted ")

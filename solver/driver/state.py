@@ -52,10 +52,16 @@ def _plain(obj):
 
 def fingerprint(scene) -> str:
     """Hash of everything that determines the trajectory (not time.end, not output,
-    not how the ranks were balanced)."""
+    not how the ranks were balanced or how many a partition asked for:
+    ``partitions[].ranks`` counts as unset, so a run restarts on another rank
+    count with other ranks given; a checkpoint written without them hashes
+    as before)."""
     data = _plain(scene)
     for name in ("output", "balance", "balance_steps"):
         data.pop(name, None)
+    for part in data.get("partitions") or ():
+        if isinstance(part, dict) and "ranks" in part:
+            part["ranks"] = None
     data["time"].pop("end", None)
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:32]
 

@@ -96,10 +96,11 @@ def test_rebuilt_on_the_measured_ranks(shared_tmp, monkeypatch):
 
 
 def test_kept_ranks_restore_the_initial_state(shared_tmp, monkeypatch):
-    """p0 9 ms on each of its 2 ranks, p1 1 ms: p0 keeps both; the run starts
-    from the initial state put back (the scheme stepped 1 + 3 system steps)."""
+    """p0 9 ms on each of its 2 ranks, p1 4 ms: p0 keeps both (p1 riding on
+    one of 3 ranks for p0 would load it 6 + 4 ms); the run starts from the
+    initial state put back (the scheme stepped 1 + 3 system steps)."""
     estimated, _ = scene_run(shared_tmp, "est_kept")
-    monkeypatch.setattr(balance, "measure", walls_of({0: 9e-3, 1: 1e-3}))
+    monkeypatch.setattr(balance, "measure", walls_of({0: 9e-3, 1: 4e-3}))
     measured, log = scene_run(shared_tmp, "kept", balance="measured", balance_steps=3)
     assert ranks_of(estimated) == ranks_of(measured) == [2, 1]
     if WORLD.rank == 0:
