@@ -111,18 +111,23 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
         say(line)
     refuse(scene, decided.problems, say, sides=decided.freqs)
     comms = ranks.communicators(comm, assignment)
-    parts, error, name = [], None, "?"
+    built, error, name = {}, None, "?"
+    # pieces of split partitions first: building one is collective on its ranks,
+    # so a rank that fails on a partition of its own (one riding beside another's
+    # piece) must have joined every collective build before it stops
+    mine = sorted(assignment.partitions_on(rank), key=lambda q: (len(assignment.ranks[q]) == 1, q))
     try:
-        for p in assignment.partitions_on(rank):
+        for p in mine:
             name = scene.partitions[p].name
             piece = distribute.piece_on(dists, assignment, p, rank)
-            parts.append(PARTITION_TYPES[scene.partitions[p].method](
+            built[p] = PARTITION_TYPES[scene.partitions[p].method](
                 scene.partitions[p], piece, mdl, comms[p], treatments[p], scene.time.dt, R,
-                scene.damping, dist=dists[p]))
+                scene.damping, dist=dists[p])
     except SolverError as e:
         error = e
     except Exception as e:                      # noqa: BLE001 -- PETSc errors from options
         error = build_error(name, e)
+    parts = [built[p] for p in sorted(built)]
     try:
         agree(comm, error)
         check_large(scene, parts, freqs, comm, say)
