@@ -108,9 +108,12 @@ def test_ranks_that_do_not_add_up_are_refused(tmp_path):
 
 def test_wait_for_the_slower_rank_is_measured_apart(tmp_path):
     """-exchange_measure_wait: a barrier before each exchange; the rank of the
-    cheap partition waits for the expensive one about their difference."""
+    cheap partition waits for the expensive one about their difference (a rank
+    each: by cost the cheap one would ride on one of two ranks of the other's)."""
     raw = raw_scene("wave_bar")
     raw["time"]["end"] = 2.0e-5
+    for part in raw["partitions"]:
+        part["ranks"] = 1
     raw["reference"] = "none"
     raw["output"] = {"file": str(tmp_path / "w.h5"), "progress": 0}
     proc = run_cli([write_scene(tmp_path / "w.yaml", raw), "-exchange_measure_wait"], n=2)

@@ -47,14 +47,15 @@ def test_ranks_that_do_not_fit_are_refused(size, requested, words):
 def test_a_cheap_partition_rides_on_a_rank_of_another():
     """2 ranks, costs 3 % and 97 %: a rank each leaves the slowest rank 97; the
     expensive partition on both ranks and the cheap one beside it on the less
-    loaded, 48.5 + 3 (0.53 x).  Where riding gains under 10 % the ranks stay
+    loaded, 48.5 + 3 (0.53 x).  Where riding gains under 10 %, or would cut a
+    partition into pieces of fewer than 1,000 owned nodes, the ranks stay
     disjoint."""
     a = assign(2, [3.0, 97.0], [100, 4000], [None, None])
     assert a.ranks == ((0,), (0, 1)) and "partition 0 (3 % of the cost) runs on rank 0" in a.how
     assert a.partitions_on(0) == [0, 1] and a.partitions_on(1) == [1]
-    a = assign(4, [10.0, 10.0, 1.0], [50] * 3, [None] * 3)         # 10 -> 5 + 1
+    a = assign(4, [10.0, 10.0, 1.0], [5000] * 3, [None] * 3)       # 10 -> 5 + 1
     assert a.ranks == ((0, 1), (2, 3), (0,))
-    assert assign(2, [45.0, 55.0], [50, 50], [None, None]).ranks == ((0,), (1,))
-    assert assign(3, [10.0, 18.0], [50, 50], [None, None]).ranks == ((0,), (1, 2))  # 10 vs 9.3
-    a = assign(2, [3.0, 97.0], [100, 1], [None, None])   # the expensive one cannot split
-    assert a.ranks == ((0,), (1,))
+    assert assign(2, [45.0, 55.0], [5000, 5000], [None, None]).ranks == ((0,), (1,))
+    assert assign(3, [10.0, 18.0], [5000] * 2, [None, None]).ranks == ((0,), (1, 2))  # 10 vs 9.3
+    for nodes in (1, 1999):      # too few owned nodes for two pieces of 1,000
+        assert assign(2, [3.0, 97.0], [100, nodes], [None, None]).ranks == ((0,), (1,))

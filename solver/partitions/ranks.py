@@ -140,6 +140,8 @@ def assign(size: int, costs, n_owned, requested, basis: str = "estimated",
 
 
 RIDE_GAIN = 0.9      # riders only when the slowest rank's load falls below this x the disjoint one's
+RIDE_NODES = 1000    # ... and the others gain no rank that leaves a piece fewer owned nodes: a
+#                      small partition's step is messages, not the nonzeros that the cost counts
 
 
 def loads(ranks_of, costs, size: int) -> np.ndarray:
@@ -159,13 +161,16 @@ def _riders(size: int, costs, caps, own):
     least loaded, if that is below RIDE_GAIN x the disjoint assignment
     ``own``'s; else None.  (2 ranks, a dem partition of 97 % of the cost and
     a fem one of 3 %: the dem on both ranks and the fem with it on one, 0.53 x
-    the slowest load of a rank each.)"""
+    the slowest load of a rank each.)  A partition gains no rank by it that
+    would leave its pieces fewer than RIDE_NODES owned nodes (``caps``: owned
+    nodes)."""
     P = len(costs)
     best, best_load = None, loads(own, costs, size).max() * RIDE_GAIN
     order = sorted(range(P), key=lambda q: (costs[q], q))
     for k in range(1, P):
         riders, others = order[:k], sorted(order[k:])
-        counts = _share(size, [costs[p] for p in others], [caps[p] for p in others])
+        counts = _share(size, [costs[p] for p in others],
+                        [max(len(own[p]), caps[p] // RIDE_NODES) for p in others])
         ranks_of = dict(zip(others, _contiguous(counts)))
         load = loads([ranks_of[p] for p in others], [costs[p] for p in others], size)
         for p in sorted(riders, key=lambda q: (-costs[q], q)):
