@@ -157,7 +157,8 @@ class Geometry:
         from solver.partitions import distribute, ranks
         costs = [ranks.measured_cost(w, 1) for w in walls]
         asg = ranks.assign(N, costs, [lay.n_owned for lay in self.layouts],
-                           [None] * len(self.layouts), basis="measured")
+                           [None] * len(self.layouts), basis="measured",
+                           ride=self.scene.scheme.rides)
         out = [{"owned": 0, "ghost": 0, "ext": 0, "held": 0, "particles": 0, "halo": 0,
                 "bytes": 0.0, "msgs": 0, "work": []} for _ in range(N)]
         for p, lay in enumerate(self.layouts):
