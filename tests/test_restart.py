@@ -155,3 +155,18 @@ def test_transition_run_goes_on_with_a_later_end(tmp_path, motion):
             out[name].append(f["energy/total"][()])
     for a, b in zip(out["whole"], out["short"]):
         assert np.array_equal(a, b)
+
+
+def test_the_fingerprint_leaves_out_the_ranks_given():
+    """partitions[].ranks does not enter the restart fingerprint (a restart on
+    another rank count may give other ranks), while the hash older versions
+    wrote with the ranks given is still told apart and accepted."""
+    from solver.driver.state import fingerprint
+    from solver.model import binding
+    plain = binding.load("configs/six_dof.yaml")
+    ranks = binding.load("configs/six_dof.yaml", ["partitions.fem.ranks=1",
+                                                  "partitions.dem.ranks=1"])
+    other = binding.load("configs/six_dof.yaml", ["partitions.fem.ratio=2"])
+    assert fingerprint(plain) == fingerprint(ranks) == fingerprint(plain, True)
+    assert fingerprint(ranks, True) != fingerprint(ranks)
+    assert fingerprint(other) != fingerprint(plain)

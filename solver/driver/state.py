@@ -50,17 +50,18 @@ def _plain(obj):
     return obj if isinstance(obj, (int, str, bool, type(None))) else repr(obj)
 
 
-def fingerprint(scene) -> str:
+def fingerprint(scene, ranks: bool = False) -> str:
     """Hash of everything that determines the trajectory (not time.end, not output,
     not how the ranks were balanced or how many a partition asked for:
     ``partitions[].ranks`` counts as unset, so a run restarts on another rank
     count with other ranks given; a checkpoint written without them hashes
-    as before)."""
+    as before).  ``ranks``: the hash that versions before 2026-12-03 wrote,
+    with the ranks given (their checkpoints are read too)."""
     data = _plain(scene)
     for name in ("output", "balance", "balance_steps"):
         data.pop(name, None)
     for part in data.get("partitions") or ():
-        if isinstance(part, dict) and "ranks" in part:
+        if isinstance(part, dict) and "ranks" in part and not ranks:
             part["ranks"] = None
     data["time"].pop("end", None)
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:32]
@@ -206,7 +207,7 @@ def _read(path: str, scene) -> dict:
             if g.attrs.get("digest") != attrs_digest(g):
                 raise SceneError(f"{where}: the checkpoint is damaged (its attributes do not "
                                  "match their checksum); the file is left as it is")
-            if g.attrs.get("fingerprint") != fingerprint(scene):
+            if g.attrs.get("fingerprint") not in (fingerprint(scene), fingerprint(scene, True)):
                 raise SceneError(f"{where}: written for scene {g.attrs.get('scene')!r} with other "
                                  "model, partitions, steps or loads than this scene (only "
                                  "time.end and output may change on restart)")
