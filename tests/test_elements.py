@@ -82,3 +82,15 @@ def test_inverted_element_is_named(name):
     with pytest.raises(BadElement, match="element 2 is inverted or degenerate") as info:
         stiffness(FAMILIES[name], X, MATERIALS[FAMILIES[name].dim][0])
     assert info.value.index == 2
+
+
+def test_a_cell_flat_within_rounding_is_refused_not_inverted_by_lapack():
+    """Collinear tri3 nodes: the closed-form determinant is +3.5e-18, not 0; the
+    cell is still refused (BadElement naming it), where np.linalg.inv would
+    raise 'Singular matrix' while assembling its stiffness."""
+    from solver.model.elements import FAMILIES, BadElement, lumped_mass, quadrature
+    X = np.array([[[0.0, 0.0], [0.1, 0.7], [0.03, 0.21]]])
+    with pytest.raises(BadElement, match="element 0 is inverted or degenerate"):
+        quadrature(FAMILIES["tri3"], X)
+    with pytest.raises(BadElement):
+        lumped_mass(FAMILIES["tri3"], X, type("M", (), {"rho": 1.0, "measure": lambda: 1.0}))

@@ -104,9 +104,14 @@ def test_decide_from_constructed_walls():
 def test_nothing_to_time_where_nothing_can_change():
     class Built:
         assignment = object()
+        layouts = [type("L", (), {"n_owned": 1999})] * 2
     scene = _Scene(_Spec("a"), _Spec("b"))
     assert cannot_change(scene, Built, 1) == "one rank serves every partition"
     assert cannot_change(scene, Built, 2) == "2 ranks for 2 partitions: one rank each"
+
+    class Large(Built):                   # a cheap partition might ride beside half of it
+        layouts = [type("L", (), {"n_owned": 2000})] * 2
+    assert cannot_change(scene, Large, 2) is None
     assert cannot_change(scene, Built, 3) is None
     assert cannot_change(_Scene(_Spec("a"), _Spec("b"), _Spec("c")), Built, 2) is None   # placement
     assert cannot_change(_Scene(_Spec("a", 1), _Spec("b", 2)), Built, 3) == \

@@ -41,7 +41,9 @@ def cannot_change(scene, scheme, size: int) -> str | None:
         return "one rank serves every partition"
     if P == 1:
         return "one partition: it has every rank"
-    if size == P:
+    if size == P and not (scene.scheme.rides and any(
+            lay.n_owned >= 2 * ranks.RIDE_NODES for lay in scheme.layouts)):
+        # (a cheap partition could ride beside a piece of a large one: timed)
         return f"{size} ranks for {P} partitions: one rank each"
     if all(p.ranks is not None for p in scene.partitions):
         return "partitions[].ranks gives every partition's ranks"

@@ -295,13 +295,18 @@ def determinant(J: np.ndarray) -> np.ndarray:
     return np.linalg.det(J)
 
 
+DEGENERATE = 1e-12   # det J below this x the product of J's row norms: a flat or collapsed cell
+
+
 def quadrature(family: Family, X: np.ndarray, gradients: bool = True):
     """(N [q, a], dN/dx [e, q, a, d], w*detJ [e, q]) for coordinates X [e, a, d];
     ``gradients`` False: dN/dx is None (masses and volumes need only w*detJ)."""
     N, dN = family.shape(family.points)
     J = jacobian(dN, X)                              # J_ij = dx_j / dxi_i  [e, q, i, j]
     detJ = determinant(J)
-    bad = detJ <= 0
+    # degenerate within rounding counts as inverted: the closed form can leave a
+    # singular J a determinant of +1e-18 (|det J| <= the product of its row norms)
+    bad = detJ <= DEGENERATE * np.prod(np.linalg.norm(J, axis=-1), axis=-1)
     if bad.any():
         e, q = np.argwhere(bad)[0]
         raise BadElement(int(e), float(detJ[e, q]))

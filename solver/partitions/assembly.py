@@ -201,8 +201,9 @@ def block_nonzeros(block_sets, number, lo, hi, n_global, chunk: int = 32768):
     node -> matrix node, -1: not in the matrix) plus every row's diagonal.
     Only the elements with a row here count; the pattern is the sparse product
     R^T C of their incidence matrices (R: the rows here), taken ``chunk`` rows
-    at a time, so that its temporaries stay a few MB whatever the rank holds;
-    no element matrix is computed."""
+    at a time: the incidence matrices grow with the rank's elements (about
+    45 MB for 200,000 hexahedral rows, against 390 MB of BAIJ values), the
+    product's temporaries do not; no element matrix is computed."""
     from scipy.sparse import csr_matrix, eye   # lazy: scipy loads only where it is used
     n = hi - lo
     conns = []

@@ -63,7 +63,8 @@ def plan(scene, mdl, size, treatments, assignment=None):
         costs = [ranks.cost(owned_nonzeros(graph, lay.owned, mdl.dofmap), R // p.ratio)
                  for lay, p in zip(layouts, scene.partitions)]
         assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts],
-                                  [p.ranks for p in scene.partitions])
+                                  [p.ranks for p in scene.partitions],
+                                  ride=scene.scheme.rides)
     dists = [distribute.split(lay, graph, len(assignment.ranks[p]))
              for p, lay in enumerate(layouts)]
     freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
@@ -174,7 +175,8 @@ def check_large(scene, parts, freqs, comm, say):
     """Partitions too large for the dense check: the Gershgorin bound from their
     assembled operators (collective on each partition's ranks), then refuse."""
     local = {}
-    for part in parts:
+    # split partitions first (collective on their ranks), as they were built
+    for part in sorted(parts, key=lambda q: q.comm.size == 1):
         if freqs.get(part.name, (None,))[0] is None:
             local[part.name] = stability.assembled(scene, part)
     problems = []

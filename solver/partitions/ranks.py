@@ -122,8 +122,11 @@ def assign(size: int, costs, n_owned, requested, basis: str = "estimated",
         own = _contiguous(counts)
         riding = _riders(size, costs, n_owned, own) if ride else None
         if riding is not None:
+            idle = size - len({r for rs in riding[0] for r in rs})
             return Assignment(riding[0], tuple(costs), f"{size} rank(s) for {P} partition(s), "
-                              f"shared by {basis} cost; {riding[1]}", basis)
+                              f"shared by {basis} cost; {riding[1]}"
+                              + (f"; {idle} rank(s) idle (no partition has nodes to spare)"
+                                 if idle else ""), basis)
         how = (f"{size} rank(s) for {P} partition(s), shared by {basis} cost"
                + (f"; {idle} rank(s) idle (no partition has nodes to spare)" if idle else ""))
         return Assignment(own, tuple(costs), how, basis)
