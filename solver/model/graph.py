@@ -16,6 +16,25 @@ import numpy as np
 from solver.model.dofmap import ranges
 
 
+def incidence(conns, n_cols: int):
+    """The cell-node incidence matrix C [cells, n_cols] (scipy CSR of bools) of
+    ``conns`` ([m, k] arrays, one per cell family; entries below 0 are left
+    out, a repeated node is kept twice), int32 indices while they fit; None
+    when there are no cells.  C^T C is the node graph's pattern
+    (:meth:`Graph.from_cells`), R^T C that of a matrix's rows
+    (:func:`solver.partitions.assembly.block_nonzeros`)."""
+    from scipy.sparse import csr_matrix  # lazy: scipy loads only where it is used
+    conns = [c.reshape(len(c), -1) for c in map(np.asarray, conns) if c.size]
+    if not conns:
+        return None
+    itype = np.int32 if max(n_cols, sum(c.size for c in conns)) < 2 ** 31 else np.int64
+    width = np.concatenate([(c >= 0).sum(axis=1) for c in conns]).astype(itype)
+    col = np.concatenate([c[c >= 0] for c in conns]).astype(itype, copy=False)
+    ptr = np.zeros(width.size + 1, dtype=itype)
+    np.cumsum(width, out=ptr[1:])
+    return csr_matrix((np.ones(col.size, bool), col, ptr), shape=(width.size, n_cols))
+
+
 class Graph(NamedTuple):
     indptr: np.ndarray
     indices: np.ndarray
@@ -28,17 +47,9 @@ class Graph(NamedTuple):
         One sparse product (a few bytes per nonzero), no edge keys to sort.
         ``indices`` are int32 while the node ids fit (76 MB instead of 151 MB
         for the 2.27 M-DOF bar; what every share's graph rows are made of)."""
-        from scipy.sparse import csr_matrix  # lazy: scipy loads only where it is used
-        conns = [c.reshape(len(c), -1) for c in map(np.asarray, conns) if c.size]
-        if not conns:
+        C = incidence(conns, n_nodes)
+        if C is None:
             return cls(np.zeros(n_nodes + 1, np.int64), np.zeros(0, np.int64))
-        itype = np.int32 if max(n_nodes, sum(c.size for c in conns)) < 2 ** 31 else np.int64
-        col = np.concatenate([c.ravel() for c in conns]).astype(itype, copy=False)
-        width = np.concatenate([np.full(len(c), c.shape[1], dtype=itype) for c in conns])
-        ptr = np.zeros(width.size + 1, dtype=itype)
-        np.cumsum(width, out=ptr[1:])
-        C = csr_matrix((np.ones(col.size, bool), col, ptr), shape=(width.size, n_nodes))
-        del col, width, ptr
         A = (C.T.tocsr() @ C).tocsr()
         del C
         A.sort_indices()

@@ -21,6 +21,7 @@ import numpy as np
 
 from solver.petscutil import init
 from solver.errors import SceneError
+from solver.model.graph import incidence
 
 CHUNK = 2048          # elements per insertion call (bounds the temporaries)
 
@@ -204,7 +205,7 @@ def block_nonzeros(block_sets, number, lo, hi, n_global, chunk: int = 32768):
     at a time: the incidence matrices grow with the rank's elements (about
     45 MB for 200,000 hexahedral rows, against 390 MB of BAIJ values), the
     product's temporaries do not; no element matrix is computed."""
-    from scipy.sparse import csr_matrix, eye   # lazy: scipy loads only where it is used
+    from scipy.sparse import eye   # lazy: scipy loads only where it is used
     n = hi - lo
     conns = []
     for conn, _ in block_sets:
@@ -214,20 +215,10 @@ def block_nonzeros(block_sets, number, lo, hi, n_global, chunk: int = 32768):
             if mine.any():
                 conns.append(c[mine])
     d, o = np.zeros(n, np.int64), np.zeros(n, np.int64)
-    C = None
-    if conns:
-        itype = np.int32 if max(n_global, sum(c.size for c in conns)) < 2 ** 31 else np.int64
-        el = np.concatenate([np.repeat(np.arange(len(c), dtype=itype), c.shape[1]) for c in conns])
-        el += np.repeat(np.cumsum([0] + [len(c) for c in conns[:-1]]).astype(itype),
-                        [c.size for c in conns])
-        col = np.concatenate([c.ravel() for c in conns]).astype(itype, copy=False)
-        del conns
-        n_el = int(el[-1]) + 1
-        on = col >= 0
-        C = csr_matrix((np.ones(int(on.sum()), bool), (el[on], col[on])), shape=(n_el, n_global))
-        row = (col >= lo) & (col < hi)
-        Rt = csr_matrix((np.ones(int(row.sum()), bool), (col[row] - lo, el[row])), shape=(n, n_el))
-        del el, col, on, row
+    C = incidence(conns, n_global)
+    del conns
+    if C is not None:
+        Rt = C[:, lo:hi].T.tocsr()               # the elements of each row here
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         pattern = eye(b - a, n_global, k=lo + a, dtype=bool, format="csr")
