@@ -175,7 +175,7 @@ def plan(scene, mdl, size):
              for lay, p in zip(layouts, specs)]
     requested = [p.ranks for p in specs] if size > 1 else [None, None]
     assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts], requested,
-                              ride=False)
+                              ride=scene.scheme.rides)
     # a side on one rank keeps its nodes in layout order (the 1- and 2-rank runs' numbering)
     dists = [distribute.split(lay, graph, len(rs)) if len(rs) > 1 else
              distribute.whole(lay, mdl.n_nodes) for lay, rs in zip(layouts, assignment.ranks)]

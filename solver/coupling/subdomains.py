@@ -90,7 +90,7 @@ def plan(scene, mdl, size: int, assignment=None):
         costs = [ranks.cost(owned_nonzeros(graphs[p], layouts[p].owned, mdl.dofmap),
                             R // specs[p].ratio) for p in range(2)]
         assignment = ranks.assign(size, costs, [lay.n_owned for lay in layouts],
-                                  [p.ranks for p in specs], ride=False)
+                                  [p.ranks for p in specs], ride=scene.scheme.rides)
     # one rank: the node order of the single-rank scheme; several: as every partition
     dists = [distribute.split(layouts[p], graphs[p], len(assignment.ranks[p]), order=size > 1)
              for p in range(2)]

@@ -54,10 +54,7 @@ class Assignment:
     def rank_times(self, walls, size: int) -> np.ndarray:
         """Predicted time per system step of every rank when partition p takes
         ``walls[p]`` on its ranks: the sum over the partitions it serves."""
-        out = np.zeros(size)
-        for rs, w in zip(self.ranks, walls):
-            out[list(rs)] += w
-        return out
+        return rank_sums(self.ranks, walls, size)
 
 
 def span(rs) -> str:
@@ -147,13 +144,18 @@ RIDE_NODES = 1000    # ... and the others gain no rank that leaves a piece fewer
 #                      small partition's step is messages, not the nonzeros that the cost counts
 
 
-def loads(ranks_of, costs, size: int) -> np.ndarray:
-    """Every rank's predicted load: the sum over the partitions it serves of
-    their cost divided by their rank count."""
+def rank_sums(ranks_of, values, size: int) -> np.ndarray:
+    """Every rank's sum of ``values[p]`` over the partitions p it serves."""
     out = np.zeros(size)
-    for rs, c in zip(ranks_of, costs):
-        out[list(rs)] += c / len(rs)
+    for rs, v in zip(ranks_of, values):
+        out[list(rs)] += v
     return out
+
+
+def loads(ranks_of, costs, size: int) -> np.ndarray:
+    """Every rank's predicted load: its partitions' costs, each divided by
+    the partition's rank count."""
+    return rank_sums(ranks_of, [c / len(rs) for rs, c in zip(ranks_of, costs)], size)
 
 
 def _riders(size: int, costs, caps, own):
