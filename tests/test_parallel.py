@@ -15,11 +15,12 @@ ETAS = (1, 2, 5, 10, 20)
 
 @pytest.fixture(scope="module")
 def eta_runs(tmp_path_factory):
-    """six_dof at every ratio of ETAS on 1 rank and on 2: one launch per rank
+    """six_dof to t = 5 at every ratio of ETAS on 1 rank and on 2: one launch per rank
     count (tests/mpi/cli_cases.py), the output files in the returned folder."""
     tmp = tmp_path_factory.mktemp("eta")
     cases = {1: [], 2: []}
     raw = raw_scene("six_dof")
+    raw["time"]["end"] = 5.0         # 50,000 base steps (test_six_dof runs all 200,000 on 1 rank)
     for eta in ETAS:
         raw["partitions"][0]["ratio"] = eta
         for n in cases:

@@ -36,12 +36,25 @@ def test_ranks_from_the_scene():
 
 @pytest.mark.parametrize("size,requested,words", [
     (4, [1, 2], "add up to 3 (partitions[0].ranks = 1, partitions[1].ranks = 2) but 4 ranks"),
-    (2, [2, None], "3 in all, but 2 were launched; run with -n 3"),
+    (2, [2, None], "3 in all (this scheme keeps its sides on ranks of their own), but 2 were "
+                   "launched; run with -n 3"),
+    (2, [3, None], "ask for 3 ranks (partitions[0].ranks = 3), but 2 were launched; run with -n 3"),
     (100, [60, None], "partitions[0].ranks: 60 ranks for 50 owned nodes"),
 ])
 def test_ranks_that_do_not_fit_are_refused(size, requested, words):
     with pytest.raises(LaunchError, match=re.escape(words)):
-        assign(size, [1.0, 1.0], [50, 50], requested)
+        assign(size, [1.0, 1.0], [50, 50], requested, ride=False)
+
+
+def test_a_partition_left_without_a_rank_rides():
+    """partitions[].ranks take every rank: the others ride, most expensive on
+    the least loaded rank first; with a rank or more left, the most expensive
+    take them and only the cheapest ride."""
+    a = assign(2, [1.0, 10.0], [50, 50], [None, 2])
+    assert a.ranks == ((0,), (0, 1)) and "partition 0 runs on rank 0" in a.how
+    a = assign(3, [1.0, 4.0, 9.0, 2.0], [50] * 4, [None, None, 2, None])   # loads 4, 4.5, 4.5
+    assert a.ranks == ((1,), (0,), (1, 2), (0,))      # then 3 joins rank 0 and 0 rank 1
+    assert "partition 0 runs on rank 1" in a.how and "partition 3 runs on rank 0" in a.how
 
 
 def test_a_cheap_partition_rides_on_a_rank_of_another():

@@ -6,7 +6,9 @@ rows (stiffness or bond operator) times its steps per system step, or, with
 system step times its ranks.  With N ranks and P partitions:
 
 * ``partitions[].ranks`` given for every partition: they must add up to N;
-  given for some: the others share the remaining ranks by cost.
+  given for some: the others share the remaining ranks by cost, and those
+  left without a rank (the cheapest) ride on the least loaded rank, unless
+  the scheme keeps its sides on ranks of their own.
 * N >= P (default): every partition gets one rank, and the N - P others go
   to the partitions by cost (largest remainder of N * cost share), never more
   ranks than a partition has owned nodes.  Ranks are disjoint and contiguous,
@@ -102,17 +104,33 @@ def assign(size: int, costs, n_owned, requested, basis: str = "estimated",
         if not free and used != size:
             raise LaunchError(f"partitions[].ranks add up to {used} ({listed}) but {size} ranks "
                               f"were launched; run with -n {used} or change them")
-        if used + len(free) > size:
-            raise LaunchError(f"partitions[].ranks ask for {used} ranks ({listed}) and "
-                              f"{len(free)} other partition(s) need one each, {used + len(free)} "
-                              f"in all, but {size} were launched; run with -n {used + len(free)} "
-                              "or lower them")
+        if used > size or (used + len(free) > size and not ride):
+            raise LaunchError(f"partitions[].ranks ask for {used} ranks ({listed})"
+                              + (f" and {len(free)} other partition(s) need one each, "
+                                 f"{used + len(free)} in all (this scheme keeps its sides on "
+                                 "ranks of their own)" if used <= size else "")
+                              + f", but {size} were launched; run with -n "
+                              f"{used + len(free) if used <= size else used} or lower them")
+        # the most expensive of the others take the ranks left, one each; the
+        # cheapest, for which none is left, ride on the least loaded rank
+        order = sorted(free, key=lambda q: (-costs[q], q))
+        keep = sorted(order[:size - used])
         counts = dict(given)
-        counts.update(zip(free, _share(size - used, [costs[p] for p in free],
-                                       [n_owned[p] for p in free])))
+        counts.update(zip(keep, _share(size - used, [costs[p] for p in keep],
+                                       [n_owned[p] for p in keep])))
+        placed = [p for p in range(P) if p in counts]
+        ranks_of = dict(zip(placed, _contiguous([counts[p] for p in placed])))
+        load = loads([ranks_of[p] for p in placed], [costs[p] for p in placed], size)
+        for p in order[size - used:]:
+            r = int(np.argmin(load))
+            ranks_of[p] = (r,)
+            load[r] += costs[p]
         how = (f"{size} rank(s); partitions[].ranks given for "
-               f"{', '.join(str(p) for p in given)}, the rest by {basis} cost")
-        return Assignment(_contiguous([counts[p] for p in range(P)]), tuple(costs), how, basis)
+               f"{', '.join(str(p) for p in given)}, the rest by {basis} cost"
+               + "".join(f"; partition {p} runs on rank {ranks_of[p][0]} with another "
+                         "partition's piece (no rank left for it)"
+                         for p in sorted(order[size - used:])))
+        return Assignment(tuple(ranks_of[p] for p in range(P)), tuple(costs), how, basis)
     if size >= P:
         counts = _share(size, costs, n_owned)
         idle = size - sum(counts)

@@ -118,7 +118,8 @@ class Partition:
     beta: float = key("Newmark beta (explicit and implicit integrators)", 0.25, nonnegative=True)
     gamma: float = key("Newmark gamma (explicit and implicit integrators)", 0.5, positive=True)
     ranks: int | None = key("MPI ranks serving this partition (default: the run's ranks shared "
-                            "by cost, estimated or measured as balance says; see "
+                            "by cost, estimated or measured as balance says; those left "
+                            "without a rank ride on the least loaded one; see "
                             "docs/guide/ranks.md)", None, positive=True)
 
     SUPPORTED = {("fem", "explicit"), ("fem", "implicit"), ("dem", "verlet")}
