@@ -183,6 +183,7 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
         np.all((cell >= 0) & (cell < shape), axis=1)
     site_of = np.full(int(np.prod(shape)), -1, dtype=np.int64)
     site_of[np.ravel_multi_index(tuple(cell[on_grid].T), tuple(shape))] = np.flatnonzero(on_grid)
+    del cell, on_grid
     missing = np.flatnonzero(site_of < 0)
     if missing.size:
         where = ", ".join("(" + ", ".join(f"{c:.6g}" for c in p) + ")" for p in lat.points[missing[:5]])
@@ -201,14 +202,26 @@ def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
     corners = site_of[lat.corners]
     n_dem = is_dem[corners].sum(axis=1)
     mixed = (n_dem > 0) & (n_dem < corners.shape[1])
-    si, sj, bk = lat.bonds(~mixed)
-    a_, b_ = site_of[si], site_of[sj]
-    bi, bj = np.minimum(a_, b_), np.maximum(a_, b_)
+    wanted = np.sort(corners[mixed], axis=1)
+    del corners, n_dem, is_dem
+    # in mesh numbering, sorted once (each temporary let go as soon as it is
+    # used: on the 2.27 M-DOF bar these arrays are 4 M bonds long)
+    si, sj, bk = lat.bonds(~mixed, order=False)
+    del lat                          # (its sites and cells)
+    a_ = site_of[si]
+    del si
+    b_ = site_of[sj]
+    del sj
+    bi = np.minimum(a_, b_)
+    bj = np.maximum(a_, b_, out=a_)
+    del a_, b_
     order = np.argsort(bi * np.int64(len(pts)) + bj)
-    bi, bj, bk = bi[order], bj[order], bk[order]
+    bi = bi[order]
+    bj = bj[order]
+    bk = bk[order]
+    del order
     overlap = []
     if mixed.any():
-        wanted = np.sort(corners[mixed], axis=1)
         for fam, conn, Ke in cells:
             hit = same_corners(conn, wanted)
             if hit.any():

@@ -41,9 +41,10 @@ class Lattice:
     shape: tuple             # particles per axis
     contributions: tuple     # (corner offset a, corner offset b, k): every cell's share of bond a-b
 
-    def bonds(self, keep=None):
+    def bonds(self, keep=None, order: bool = True):
         """The bonds of the cells ``keep`` (a mask over the cells; None: all),
-        each cell's contributions summed: (i, j, k) with i < j, by (i, j).
+        each cell's contributions summed: (i, j, k) with i < j, by (i, j)
+        (``order`` False: by direction, for a caller that renumbers and sorts).
 
         The sum runs over the site grid one bond direction at a time (a
         bond's contributions come from cells of one direction, all of the
@@ -60,17 +61,24 @@ class Lattice:
             # cell c's contribution is to the bond from site c + a
             grid[tuple(slice(x, x + n) for x, n in zip(a, cells))] += k * kept
         n = np.int64(len(self.points))
-        i, j, k = [], [], []
-        for d, grid in start.items():
+        total = sum(int(np.count_nonzero(grid)) for grid in start.values())
+        i, j, k = np.empty(total, np.int64), np.empty(total, np.int64), np.empty(total)
+        at = 0                           # filled in place: no list of pieces to concatenate
+        for d in list(start):
+            grid = start.pop(d)
             p = np.flatnonzero(grid)
             q = np.ravel_multi_index(tuple(np.array(np.unravel_index(p, shape)) +
                                            np.array(d)[:, None]), shape)
-            i.append(np.minimum(p, q))
-            j.append(np.maximum(p, q))
-            k.append(grid.ravel()[p])
-        i, j, k = (np.concatenate(x) for x in (i, j, k))
-        order = np.argsort(i.astype(np.int64) * n + j)
-        return i[order].astype(np.int64), j[order].astype(np.int64), k[order]
+            end = at + p.size
+            np.minimum(p, q, out=i[at:end])
+            np.maximum(p, q, out=j[at:end])
+            k[at:end] = grid.ravel()[p]
+            at = end
+            del grid, p, q
+        if not order:
+            return i, j, k
+        by = np.argsort(i * n + j)
+        return i[by], j[by], k[by]
 
     @cached_property
     def _merged(self):
