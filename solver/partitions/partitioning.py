@@ -80,9 +80,14 @@ def _shares(mdl, dists, assignment, size, methods):
     no fem partition: ``methods``, every partition's)."""
     yield mdl
     for r in range(1, size):
-        held = distribute.held_on(dists, assignment, r)
-        fem = any(methods[p] == "fem" for p in assignment.partitions_on(r))
-        yield mdl.share(held, body_cells=fem)
+        yield share_of(mdl, dists, assignment, r, methods)
+
+
+def share_of(mdl, dists, assignment, rank, methods):
+    """The model's cells and bonds of the nodes world ``rank`` holds."""
+    held = distribute.held_on(dists, assignment, rank)
+    fem = any(methods[p] == "fem" for p in assignment.partitions_on(rank))
+    return mdl.share(held, body_cells=fem)
 
 
 def build_error(name: str, e: Exception) -> SceneError:
@@ -108,6 +113,12 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
     release()                    # rank 0: the whole graph and the planning temporaries
     layouts, assignment, dists, freqs = (decided.layouts, decided.assignment, decided.dists,
                                          dict(decided.freqs))
+    # rank 0 builds its pieces from its share, as the others do (from the whole
+    # model every mask and selection would run over all cells and bonds); it
+    # keeps the whole model for what reads it after set-up (fields, counts)
+    whole = mdl
+    if size > 1 and rank == 0:
+        mdl = share_of(whole, dists, assignment, 0, [p.method for p in scene.partitions])
     for line in assignment.lines([p.name for p in scene.partitions]):
         say(line)
     refuse(scene, decided.problems, say, sides=decided.freqs)
@@ -139,7 +150,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
         for part in parts:           # refused after building: free the PETSc objects
             part.destroy()
         raise
-    return Partitions(layouts, assignment, dists, parts, freqs, mdl)
+    return Partitions(layouts, assignment, dists, parts, freqs, whole)
 
 
 def check_stability(scene, mdl, layouts, ids):
