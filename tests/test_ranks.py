@@ -72,3 +72,18 @@ def test_a_cheap_partition_rides_on_a_rank_of_another():
     assert assign(3, [10.0, 18.0], [5000] * 2, [None, None]).ranks == ((0,), (1, 2))  # 10 vs 9.3
     for nodes in (1, 1999):      # too few owned nodes for two pieces of 1,000
         assert assign(2, [3.0, 97.0], [100, nodes], [None, None]).ranks == ((0,), (1,))
+
+
+def test_rank0_lets_go_of_the_whole_model_only_where_nothing_reads_it():
+    """On several ranks rank 0 keeps only its share of a continuum model,
+    unless fields or a measured balance read it whole (modal references are
+    for networks, which keep theirs)."""
+    from conftest import raw_scene
+    from solver.partitions.partitioning import lets_go
+    from solver.scene.file import from_dict
+    raw = raw_scene("bar3d")
+    assert lets_go(from_dict(raw), 2) and not lets_go(from_dict(raw), 1)
+    for key, value in (("output", {"file": "x.h5", "fields": {"every": 10}}),
+                       ("balance", "measured")):
+        assert not lets_go(from_dict({**raw, key: value}), 2), key
+    assert not lets_go(from_dict(raw_scene("six_dof")), 2)          # a network

@@ -122,6 +122,7 @@ class ConcurrentOverlap(Scheme):
              "guard stops a blow-up)")
     uses_external = True
     max_ranks = None
+    hands_over = True          # the partitions stage may let go of rank 0's whole model
 
     @staticmethod
     def treatments(scene) -> list[str]:

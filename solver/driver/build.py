@@ -14,7 +14,7 @@ from solver.model import layout as overlap
 from solver.memory import release
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
-from solver.partitions import integrators, levels
+from solver.partitions import integrators, levels, partitioning
 
 
 def _silent(*_):
@@ -23,9 +23,10 @@ def _silent(*_):
 
 @dataclass
 class Assembly:
-    """Everything a run steps: the model (rank 0: all of it; other ranks: the
-    cells and bonds touching their nodes), all layouts, this rank's partitions
-    and the coupling scheme (which owns the exchanges)."""
+    """Everything a run steps: the model (rank 0: all of it, unless it let go
+    of it once shared out, :func:`solver.partitions.partitioning.lets_go`;
+    other ranks: the cells and bonds touching their nodes), all layouts, this
+    rank's partitions and the coupling scheme (which owns the exchanges)."""
 
     model: object
     layouts: list
@@ -33,6 +34,7 @@ class Assembly:
     scheme: object
     freqs: dict
     scene: object = None          # the scene built (levels and time.dt made: resolve)
+    counts: dict = None           # the whole model's FE cells and particles (model_counts)
 
     def destroy(self):
         for part in self.parts:
@@ -42,6 +44,19 @@ class Assembly:
 
 
 MEASURE_WAIT = "-exchange_measure_wait"    # the command line's word for measure_wait
+
+
+def model_counts(mdl, comm) -> dict:
+    """FE cells and DEM particles of a continuum model (rank 0 holds it whole
+    until the partitions stage)."""
+    counts = {}
+    if comm.rank == 0 and mdl.kind == "continuum":
+        counts["fe_cells"] = sum(len(conn) for _, conn, _ in mdl.cells)
+        zone = mdl.zone
+        if zone is not None:
+            counts["particles"] = zone.n_core + len(zone.band_points)
+            counts["band_particles"] = len(zone.band_points)
+    return comm.bcast(counts) if comm.size > 1 else counts
 
 
 def run_flags(petsc_options) -> tuple[list, bool]:
@@ -115,6 +130,9 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
         for line in element_steps.lines(scene, mdl):
             say(f"[solver]   {line}")
         release()                   # the element steps of every cell and bond
+    counts = model_counts(mdl, comm)
+    if scheme_cls.hands_over and partitioning.lets_go(scene, size) and mdl is not None:
+        mdl, model = partitioning.Whole(mdl), None      # (no reference left here)
     scheme = scheme_cls.build(scene, mdl, comm, say)
     if scene.balance == "measured":          # timed, then kept or built again on other ranks
         scheme = balance.balanced(scene, scheme_cls, scheme, mdl, comm, say)
@@ -145,4 +163,4 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
     if not_built:
         say(f"[solver]   not built: {', '.join(not_built)}")
     scheme.initialise(mdl)          # (a scheme balance kept: the state it was put back to)
-    return Assembly(mdl, layouts, parts, scheme, freqs, scene)
+    return Assembly(mdl, layouts, parts, scheme, freqs, scene, counts)

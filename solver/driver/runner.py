@@ -104,7 +104,7 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
             heating.restore(saved["heat"])
         say(f"[solver] restarted from {restart} at system step {start} (t = {start * Dt:.6g} s)")
     report = Report(scene, asm, probes, guard, comm, scene_text, t_start, heating)
-    report.extra = {"versions": prov.versions(), "commit": prov.commit(), **model_counts(mdl, comm),
+    report.extra = {"versions": prov.versions(), "commit": prov.commit(), **asm.counts,
                     **(provenance or {})}
     if check_options:
         check_unused(comm, [p.name for p in scene.partitions])
@@ -187,18 +187,6 @@ def body_size(mdl, comm) -> float | None:
     if comm.rank == 0 and mdl.points is not None:
         size = float(np.ptp(mdl.points, axis=0).max())
     return comm.bcast(size) if comm.size > 1 else size
-
-
-def model_counts(mdl, comm) -> dict:
-    """FE cells and DEM particles of a continuum model (rank 0 holds it whole)."""
-    counts = {}
-    if comm.rank == 0 and mdl.kind == "continuum":
-        counts["fe_cells"] = sum(len(conn) for _, conn, _ in mdl.cells)
-        zone = mdl.zone
-        if zone is not None:
-            counts["particles"] = zone.n_core + len(zone.band_points)
-            counts["band_particles"] = len(zone.band_points)
-    return comm.bcast(counts) if comm.size > 1 else counts
 
 
 def step_loop(scheme, observers, stop, start: int, n_steps: int, dt: float, rank: int = 0):

@@ -147,7 +147,9 @@ def _spring_steps(conn, k, mass):
 
 def element_steps(scene, mdl, blocks, keep=None):
     """(steps [n], label(i) -> str) of the cells, bonds and springs of ``blocks``
-    (block sets (conn, Ke) in model node ids); ``keep(conn)`` selects rows."""
+    (block sets (conn, Ke) in model node ids); ``keep(conn)`` selects rows.
+    Measured CHUNK rows at a time, the selected rows never copied out (a
+    lattice's 4 M bonds at once were rank 0's set-up peak)."""
     c = speeds(scene.model.material)["p"] if scene.model.kind == "continuum" else None
     plate = (math.sqrt(scene.model.material.E / (scene.model.material.rho *
                                                  (1 - scene.model.material.nu ** 2)))
@@ -159,33 +161,45 @@ def element_steps(scene, mdl, blocks, keep=None):
         conn = np.asarray(conn)
         if not len(conn):
             continue
-        mask = keep(conn) if keep is not None else np.ones(len(conn), bool)
-        rows = conn[mask]
         fam = _family(Ke)
         if fam is not None and c is not None and points is not None:
-            if _length(fam, points[rows[:1]]) is None:
+            if _length(fam, points[conn[:1]]) is None:
                 continue
-            L = np.concatenate([_length(fam, points[rows[s:s + CHUNK]])
-                                for s in range(0, len(rows), CHUNK)] or [np.zeros(0)])
-            steps.append(L / (plate if fam.rotations else c))
-            kinds.append(fam.name)
+            speed = plate if fam.rotations else c
+
+            def measure(rows, _, fam=fam, speed=speed):
+                return _length(fam, points[rows]) / speed
+            kind = fam.name
         elif type(Ke).__name__ == "BondStiffness":
-            steps.append(_spring_steps(rows, np.asarray(Ke.k)[mask], mass))
-            kinds.append("bond")
+            k = np.asarray(Ke.k)
+
+            def measure(rows, at, k=k):
+                return _spring_steps(rows, k[at], mass)
+            kind = "bond"
         elif isinstance(Ke, np.ndarray) and conn.shape[1] <= 2 and Ke.shape[1:] == (conn.shape[1],) * 2:
-            steps.append(_spring_steps(rows, Ke[mask, 0, 0], mass))
-            kinds.append("spring")
+            def measure(rows, at, Ke=Ke):
+                return _spring_steps(rows, Ke[at, 0, 0], mass)
+            kind = "spring"
         else:
             continue                  # carried band bonds, rotation ties: not estimated
-        conns.append(rows)
+        chosen = []                   # the selected row numbers, chunk by chunk
+        for s in range(0, len(conn), CHUNK):
+            at = np.arange(s, min(s + CHUNK, len(conn)))
+            if keep is not None:
+                at = at[keep(conn[at])]
+            chosen.append(at)
+            steps.append(measure(conn[at], at))
+        kinds.append(kind)
+        conns.append((conn, np.concatenate(chosen)))
     if not steps:
         return np.zeros(0), None
-    starts = np.cumsum([0] + [len(s) for s in steps])
     steps = np.concatenate(steps)
+    starts = np.cumsum([0] + [len(at) for _, at in conns])
 
     def label(i):
         b = int(np.searchsorted(starts, i, side="right")) - 1
-        nodes, kind = conns[b][i - starts[b]], kinds[b]
+        conn, at = conns[b]
+        nodes, kind = conn[at[i - starts[b]]], kinds[b]
         if kind in ("bond", "spring"):
             ends = "-".join(str(int(n)) for n in nodes) if len(nodes) > 1 else f"{int(nodes[0])}-ground"
             return f"{kind} {ends}"

@@ -37,6 +37,29 @@ class Partitions:
     model: object            # this rank's share of the model (rank 0: all of it)
 
 
+class Whole:
+    """Rank 0's whole model handed to the partitions stage, which lets go of
+    it once every rank has its share (:func:`lets_go`): the caller keeps no
+    reference, so rank 0 builds its own pieces without the whole model in
+    memory."""
+
+    def __init__(self, model):
+        self.model = model
+
+    def take(self):
+        model, self.model = self.model, None
+        return model
+
+
+def lets_go(scene, size: int) -> bool:
+    """Whether rank 0 may let go of the whole model once it is shared out:
+    on several ranks, a continuum model (a network's modal reference reads
+    the whole stiffness), unless fields (the whole mesh) or ``balance:
+    measured`` (which plans again) read it after set-up."""
+    return (size > 1 and scene.model.kind == "continuum" and scene.output.fields is None
+            and scene.balance != "measured")
+
+
 @dataclass
 class Plan:
     """What rank 0 decides for everyone: small arrays sent to every rank."""
@@ -100,10 +123,14 @@ def build_error(name: str, e: Exception) -> SceneError:
 def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Partitions:
     """Rank 0 plans with the whole model (``mdl``; other ranks pass None); every
     rank gets the plan's small arrays and only its share of the model, then
-    builds its pieces.  ``assignment``: the ranks to use instead of
+    builds its pieces.  ``mdl`` a :class:`Whole`: rank 0 keeps only its share
+    (the returned model).  ``assignment``: the ranks to use instead of
     those by estimated cost (:mod:`solver.driver.balance`)."""
     rank, size = comm.rank, comm.size
     R = scene.system_ratio
+    handed = isinstance(mdl, Whole)
+    if handed:
+        mdl = mdl.take()
     decided, shares = on_root(comm, plan, scene, mdl, size, treatments, assignment,
                               share=False) or (None, None)
     if size > 1:
@@ -119,6 +146,12 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
     whole = mdl
     if size > 1 and rank == 0:
         mdl = share_of(whole, dists, assignment, 0, [p.method for p in scene.partitions])
+        if handed:
+            whole = mdl              # the whole model's cells and bonds go here
+            release()
+    if handed and size > 1:
+        say("[solver]   rank 0 keeps only its share of the model once shared out (no fields "
+            "or measured balance read it whole)")
     for line in assignment.lines([p.name for p in scene.partitions]):
         say(line)
     refuse(scene, decided.problems, say, sides=decided.freqs)
