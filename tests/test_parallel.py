@@ -62,7 +62,7 @@ def test_in_process_mpi_suite(n, tmp_path):
                            "import sys, pytest; from mpi4py import MPI; sys.exit(pytest.main("
                            f"['-q', '-p', 'no:cacheprovider', '{path}', '--junitxml', "
                            f"'{report}'.format(rank=MPI.COMM_WORLD.rank)]))"],
-                          cwd=ROOT, capture_output=True, text=True, timeout=900)
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     import xml.etree.ElementTree as ET
     for rank in range(n):

@@ -134,8 +134,9 @@ def test_mixed_dof_counts_split_over_ranks():
 
 def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
     """The command line's path: rank 0 loads and binds the scene (the mesh is
-    read on rank 0 only); every other rank receives the cells that touch its
-    nodes, never the whole mesh."""
+    read on rank 0 only); every rank, rank 0 too once it has shared the model
+    out (no fields), holds the cells that touch its nodes, never the whole
+    mesh."""
     from solver.driver.build import build
     from solver.model import data as model_data
     from solver.tools.cli import load_on_root
@@ -154,14 +155,11 @@ def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
     held = np.concatenate([p.layout.held for p in asm.parts])
     inh = np.zeros(asm.model.n_nodes, bool)
     inh[held] = True
-    whole = counts[0]
-    if WORLD.rank > 0:
-        # exactly the cells touching the rank's held nodes
-        assert all(inh[conn].any(axis=1).all() for _, conn, _ in asm.model.cells)
-        assert counts[WORLD.rank] < whole
-    else:
-        assert whole == sum(len(c) for c in scene_cells(scene))
+    whole = WORLD.bcast(sum(len(c) for c in scene_cells(scene)) if WORLD.rank == 0 else None)
+    ok = (all(inh[conn].any(axis=1).all() for _, conn, _ in asm.model.cells)   # touching only
+          and counts[WORLD.rank] < whole and sum(counts) >= whole)
     asm.destroy()
+    assert all(WORLD.allgather(ok)), counts         # (every rank fails together: no hang)
     WORLD.barrier()
 
 
