@@ -16,7 +16,9 @@ ranks would build) give, per rank:
   their partition, externals (u, v, a) once per system step, halo particles
   (position and velocity) at every step of the dem partition;
 * its compute time: each partition's wall per system step measured here on
-  1 rank, shared over the partition's pieces by their owned nonzeros;
+  1 rank with the other core busy (two 1-rank runs side by side: the ranks
+  of a full node share its memory bus and last-level cache), shared over
+  the partition's pieces by their owned nonzeros;
 * its memory: the 1-rank run's peak RSS less the interpreter's baseline
   (a run of configs/six_dof.yaml), per held DOF, times the rank's held DOF,
   plus the baseline -- what a set-up that holds only its share would need.
@@ -33,6 +35,7 @@ Writes docs/benchmarks/bench_scaling_model.md.
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import tempfile
@@ -96,6 +99,30 @@ def pingpong(tmp: Path) -> tuple[float, float]:
     out = subprocess.run([mpiexec(), "-n", "2", sys.executable, str(script)],
                          capture_output=True, text=True, check=True).stdout.split()
     return float(out[0]), float(out[1])
+
+
+def paired(path, sets, tmp: Path, label: str) -> list[dict]:
+    """Two 1-rank runs of the scene side by side, one per core (``mpiexec -n 2``,
+    each rank alone on COMM_SELF, started together after a barrier): the
+    walls a rank measures when every core of the node is busy, sharing the
+    memory bus and the last-level cache, as the ranks of an N-rank run do."""
+    script = tmp / "paired.py"
+    script.write_text(textwrap.dedent("""
+        import sys
+        from mpi4py import MPI
+        import solver
+        path, stem, *sets = sys.argv[1:]
+        world = MPI.COMM_WORLD
+        scene = solver.load(path, [*sets, f"output.file={stem}_{world.rank}.h5",
+                                   "output.progress=0"])
+        world.Barrier()
+        solver.run(scene, comm=MPI.COMM_SELF, overwrite=True)
+    """))
+    stem = tmp / f"{label}_paired"
+    subprocess.run([mpiexec(), "-n", "2", sys.executable, str(script), str(path), str(stem),
+                    *sets], check=True, capture_output=True, text=True,
+                   env={**os.environ, "PYTHONPATH": str(ROOT)})
+    return [read_run(f"{stem}_{r}.h5") for r in (0, 1)]
 
 
 def baseline_rss(tmp: Path) -> float:
@@ -228,7 +255,9 @@ def main():
              "`python benchmarks/bench_scaling_model.py` (run by `./run.sh bench`). The solver's "
              "own rank assignment (by measured cost, as `balance: measured` makes it) and split "
              "for N ranks (no run), each partition's wall per system "
-             f"step measured on 1 rank ({args.steps} system steps), and a network: compute of a "
+             f"step measured on 1 rank ({args.steps} system steps) beside a second 1-rank run "
+             "of the same scene on the other core (every core busy, as on a full node: they "
+             "share the memory bus and the last-level cache), and a network: compute of a "
              "rank = the sum over its pieces of their partition's 1-rank wall times the piece's "
              "share of the owned nonzeros, plus the 1-rank step's rest (exchange, interface solve, "
              "energy, output) shared evenly; predicted time per system step = max over ranks of "
@@ -247,9 +276,14 @@ def main():
         geo = Geometry(path, sets)
         one = measure(path, sets, 1, tmp, name)
         n_sys = one["system_steps"]
-        walls = [one[f"{p.name}_s"] / n_sys for p in geo.scene.partitions]
         t1 = one["stepping_s"] / n_sys
-        rest = max(t1 - sum(walls), 0.0)
+        alone = [one[f"{p.name}_s"] / n_sys for p in geo.scene.partitions]
+        # the model's compute: each partition's 1-rank wall with the other core busy
+        pair = paired(path, sets, tmp, name)
+        walls = [float(np.mean([r[f"{p.name}_s"] / r["system_steps"] for r in pair]))
+                 for p in geo.scene.partitions]
+        t1_busy = float(np.mean([r["stepping_s"] / r["system_steps"] for r in pair]))
+        rest = max(t1_busy - sum(walls), 0.0)
         per_dof = (one["rss"][0] - base) / max(geo.n_dof, 1)
         two = measure(path, sets, 2, tmp, name)
         rows2 = geo.ranks_at(2, walls)
@@ -258,9 +292,11 @@ def main():
         ok = abs(pred2 / meas2 - 1) <= TARGET
         checks.append((name, t1, pred2, meas2, ok, one, two))
         lines += [f"## {name}: {geo.n_dof:,} DOF", "", about + ".", "",
-                  f"1 rank: {1e3 * t1:.2f} ms per system step (partitions "
+                  f"1 rank: {1e3 * t1:.2f} ms per system step alone (partitions "
+                  + ", ".join(f"{p.name} {1e3 * w:.2f} ms" for p, w in zip(geo.scene.partitions, alone))
+                  + f"), {1e3 * t1_busy:.2f} ms beside another (partitions "
                   + ", ".join(f"{p.name} {1e3 * w:.2f} ms" for p, w in zip(geo.scene.partitions, walls))
-                  + f", the rest {1e3 * rest:.2f} ms), peak RSS {one['rss'][0]:.0f} MB ({per_dof * 1e6:.0f} B per DOF above the baseline).",
+                  + f", the rest {1e3 * rest:.2f} ms: the model's compute), peak RSS {one['rss'][0]:.0f} MB ({per_dof * 1e6:.0f} B per DOF above the baseline).",
                   "", "| N | owned DOF per rank (min / max) | ghost DOF (max) | external DOF (max) | "
                   "particles (max) | halo particles (max) | bytes received per system step (max) | "
                   "messages (max) | load imbalance (max / mean compute) | memory per rank (max) [MB] "
