@@ -119,9 +119,12 @@ def paired(path, sets, tmp: Path, label: str) -> list[dict]:
         solver.run(scene, comm=MPI.COMM_SELF, overwrite=True)
     """))
     stem = tmp / f"{label}_paired"
-    subprocess.run([mpiexec(), "-n", "2", sys.executable, str(script), str(path), str(stem),
-                    *sets], check=True, capture_output=True, text=True,
-                   env={**os.environ, "PYTHONPATH": str(ROOT)})
+    proc = subprocess.run([mpiexec(), "-n", "2", sys.executable, str(script), str(path),
+                           str(stem), *sets], capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    if proc.returncode != 0:
+        raise SystemExit(f"bench_scaling_model: the paired runs of {label} failed: "
+                         f"{proc.stderr.strip()[-2000:]}")
     return [read_run(f"{stem}_{r}.h5") for r in (0, 1)]
 
 

@@ -83,6 +83,7 @@ def test_rank0_lets_go_of_the_whole_model_only_where_nothing_reads_it():
     from solver.scene.file import from_dict
     raw = raw_scene("bar3d")
     assert lets_go(from_dict(raw), 2) and not lets_go(from_dict(raw), 1)
+    assert lets_go(from_dict({**raw, "output": None}), 2)          # no output section at all
     for key, value in (("output", {"file": "x.h5", "fields": {"every": 10}}),
                        ("balance", "measured")):
         assert not lets_go(from_dict({**raw, key: value}), 2), key

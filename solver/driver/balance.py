@@ -41,7 +41,8 @@ def cannot_change(scene, scheme, size: int) -> str | None:
         return "one rank serves every partition"
     if P == 1:
         return "one partition: it has every rank"
-    if size == P and not (scene.scheme.rides and any(
+    one_each = sorted(scheme.assignment.ranks) == [(r,) for r in range(size)]
+    if size == P and one_each and not (scene.scheme.rides and any(
             lay.n_owned >= 2 * ranks.RIDE_NODES for lay in scheme.layouts)):
         # (a cheap partition could ride beside a piece of a large one: timed)
         return f"{size} ranks for {P} partitions: one rank each"

@@ -103,8 +103,11 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
     :class:`~solver.model.data.ModelData` (rank 0 builds the model from what
     binding read); ``measure_wait``: time the wait for the slower
     rank apart from each exchange (a barrier before it); ``model``: rank 0's
-    model when :func:`resolve` built it (levels, scaled masses)."""
+    model when :func:`resolve` built it (levels, scaled masses), plain or
+    handed over as a :class:`~solver.partitions.partitioning.Whole`."""
     init()
+    if isinstance(model, partitioning.Whole):       # handed over: no reference left with the caller
+        model = model.take()
     prebuilt = bool(comm.allreduce(model is not None))
     if levels.needs(scene) and not prebuilt:
         scene, model = resolve(scene, comm, store, say)

@@ -16,6 +16,7 @@ import time
 import numpy as np
 
 from solver.model import layout as overlap
+from solver.partitions.partitioning import Whole
 from solver.driver.build import build, resolve
 from solver.driver.comparison import add_reference, check_reference
 from solver.errors import RunFailed, SceneError, StabilityError, describe
@@ -73,7 +74,9 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         problem = comm.bcast(problem)
         if problem:
             raise problem
-    asm = build(scene, comm, say, store, measure_wait, model)
+    handed = Whole(model)            # build takes it: rank 0 may let go of the whole model
+    del model
+    asm = build(scene, comm, say, store, measure_wait, handed)
     mdl, parts, scheme = asm.model, asm.parts, asm.scheme
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 

@@ -56,7 +56,8 @@ def lets_go(scene, size: int) -> bool:
     on several ranks, a continuum model (a network's modal reference reads
     the whole stiffness), unless fields (the whole mesh) or ``balance:
     measured`` (which plans again) read it after set-up."""
-    return (size > 1 and scene.model.kind == "continuum" and scene.output.fields is None
+    return (size > 1 and scene.model.kind == "continuum"
+            and (scene.output is None or scene.output.fields is None)
             and scene.balance != "measured")
 
 
