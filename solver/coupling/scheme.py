@@ -48,8 +48,8 @@ class Scheme:
     levels = False             # whether partitions: auto (one levelled partition) may use it
     assignment = None          # a built scheme's ranks.Assignment (None: placed by the scheme)
     rides = True               # whether a cheap partition may run on a rank of another's
-    hands_over = False         # whether build takes the whole model as a partitioning.Whole
     #                            (ranks.assign): its sides need not have ranks of their own
+    hands_over = False         # whether build takes the whole model as a partitioning.Whole
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -120,11 +120,8 @@ def assign(size: int, costs, n_owned, requested, basis: str = "estimated",
                                        [n_owned[p] for p in keep])))
         placed = [p for p in range(P) if p in counts]
         ranks_of = dict(zip(placed, _contiguous([counts[p] for p in placed])))
-        load = loads([ranks_of[p] for p in placed], [costs[p] for p in placed], size)
-        for p in order[size - used:]:
-            r = int(np.argmin(load))
-            ranks_of[p] = (r,)
-            load[r] += costs[p]
+        _on_least_loaded(order[size - used:], costs, ranks_of, loads(
+            [ranks_of[p] for p in placed], [costs[p] for p in placed], size))
         how = (f"{size} rank(s); partitions[].ranks given for "
                f"{', '.join(str(p) for p in given)}, the rest by {basis} cost"
                + "".join(f"; partition {p} runs on rank {ranks_of[p][0]} with another "
@@ -145,16 +142,21 @@ def assign(size: int, costs, n_owned, requested, basis: str = "estimated",
         how = (f"{size} rank(s) for {P} partition(s), shared by {basis} cost"
                + (f"; {idle} rank(s) idle (no partition has nodes to spare)" if idle else ""))
         return Assignment(own, tuple(costs), how, basis)
-    load = np.zeros(size)
-    ranks = [None] * P
-    for p in sorted(range(P), key=lambda q: (-costs[q], q)):
-        r = int(np.argmin(load))
-        ranks[p] = (r,)
-        load[r] += costs[p]
+    load, ranks_of = np.zeros(size), {}
+    _on_least_loaded(range(P), costs, ranks_of, load)
     shown = [f"{1e3 * x:.3g} ms" if basis == "measured" else f"{x:.3g}" for x in load]
     how = (f"{size} rank(s) for {P} partitions: each partition on one rank, placed by "
            f"{basis} cost (rank loads {', '.join(shown)})")
-    return Assignment(tuple(ranks), tuple(costs), how, basis)
+    return Assignment(tuple(ranks_of[p] for p in range(P)), tuple(costs), how, basis)
+
+
+def _on_least_loaded(parts, costs, ranks_of, load) -> None:
+    """Each of ``parts``, most expensive first, on one rank: the least loaded
+    of ``load`` (updated in place; a view limits the ranks), into ``ranks_of``."""
+    for p in sorted(parts, key=lambda q: (-costs[q], q)):
+        r = int(np.argmin(load))
+        ranks_of[p] = (r,)
+        load[r] += costs[p]
 
 
 RIDE_GAIN = 0.9      # riders only when the slowest rank's load falls below this x the disjoint one's
@@ -196,10 +198,7 @@ def _riders(size: int, costs, caps, own):
                         [max(len(own[p]), caps[p] // RIDE_NODES) for p in others])
         ranks_of = dict(zip(others, _contiguous(counts)))
         load = loads([ranks_of[p] for p in others], [costs[p] for p in others], size)
-        for p in sorted(riders, key=lambda q: (-costs[q], q)):
-            r = int(np.argmin(load[:sum(counts)]))
-            ranks_of[p] = (r,)
-            load[r] += costs[p]
+        _on_least_loaded(riders, costs, ranks_of, load[:sum(counts)])   # the others' ranks
         if load.max() < best_load:
             best, best_load = (tuple(ranks_of[p] for p in range(P)), riders), load.max()
     if best is None:
