@@ -39,7 +39,7 @@ def subdomains(scene, mdl):
     parts = scene.partitions
     b = next(k for k, p in enumerate(parts) if integrators.kind(p).implicit)
     a = 1 - b
-    nodes = [np.asarray(sorted(p.nodes), dtype=np.int64) for p in parts]
+    nodes = [np.sort(np.asarray(p.nodes, dtype=np.int64)) for p in parts]
     in_a = np.zeros(mdl.n_nodes + 1, bool)
     in_a[nodes[a]] = True
     si, sj = mdl.spring_i, mdl.spring_j

@@ -97,9 +97,8 @@ class FieldWriter(Observer):
             self.stress_ops.append((conn, np.einsum("st,eqtj->esj", D, strain_matrix(dNdx)) /
                                     dNdx.shape[1]))
         dem = [p for p in scene.partitions if p.method == "dem"]
-        owned = [p.nodes for p in scene.partitions]
-        self.particles = np.array(sorted(n for p, nodes in zip(scene.partitions, owned)
-                                         if p.method == "dem" for n in nodes), dtype=np.int64)
+        self.particles = np.sort(np.concatenate(
+            [np.asarray(p.nodes, dtype=np.int64) for p in dem] or [np.zeros(0, np.int64)]))
         mesh_w = _open(self.files[0])
         mesh_w.write_points_cells(points, self.cells)
         self.writers = [mesh_w]

@@ -17,15 +17,16 @@ import numpy as np
 
 from solver.scene import Coupling, Guard, Partition, Time
 from solver.driver.state import fingerprint
+from solver.scene.node_set import NodeSet
 from solver.driver.monitor import Probes
 from solver.model.layout import owner_map
 from solver.driver.build import build
 
 
-def all_nodes(scene) -> tuple[int, ...]:
+def all_nodes(scene) -> NodeSet:
     """Every node a bound scene's partitions own (every node the body uses)."""
-    return tuple(np.sort(np.concatenate([np.asarray(p.nodes, dtype=np.int64)
-                                         for p in scene.partitions])).tolist())
+    return NodeSet(np.sort(np.concatenate([np.asarray(p.nodes, dtype=np.int64)
+                                           for p in scene.partitions])))
 
 
 def reference_scene(scene):

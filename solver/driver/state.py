@@ -32,6 +32,7 @@ import h5py
 from solver.driver.output import dataset
 from solver.collective import on_root
 from solver.errors import SceneError
+from solver.scene.node_set import NodeSet
 
 FORMAT = "mts-checkpoint 1"
 
@@ -39,6 +40,8 @@ FORMAT = "mts-checkpoint 1"
 def _plain(obj):
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         return {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, NodeSet):             # as the tuple of ids it was: checkpoints hash so
+        return obj.ids.tolist()
     if isinstance(obj, np.ndarray):
         return "sha256:" + hashlib.sha256(np.ascontiguousarray(obj).tobytes()).hexdigest()
     if isinstance(obj, dict):

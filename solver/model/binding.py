@@ -22,6 +22,7 @@ from solver.model.elements import FAMILIES
 from solver.model.shell_model import SHELL3
 from solver.scene import file as scene_file
 from solver.scene.model_spec import DOF_NAMES
+from solver.scene.node_set import NodeSet
 from solver.scene.sections import AUTO, Partition
 from solver.scene.schema import fail, shown
 from solver.model.shell_model import triangles
@@ -213,12 +214,12 @@ def _everything(scene, data):
     """``partitions: auto`` before levelling: one partition over the whole body
     (``integrator: levels``; solver.partitions.levels makes the levels)."""
     where = dict(group=scene.model.body) if scene.model.kind == "continuum" else \
-        dict(nodes=tuple(range(model_data.n_nodes(data))))
+        dict(nodes=NodeSet(np.arange(model_data.n_nodes(data))))
     return Partition(name="auto", method="fem", integrator="levels", ratio=1, beta=0.0,
                      gamma=0.5, **where)
 
 
-def _owned_nodes(scene, data, n, zone=None) -> list[tuple[int, ...]]:
+def _owned_nodes(scene, data, n, zone=None) -> list[NodeSet]:
     """Node ids of every partition (a node in two groups stays with the earlier
     partition); every node in range and owned exactly once.  With a transition
     band, a dem partition owns the core particles and groups keep only the
@@ -250,7 +251,7 @@ def _owned_nodes(scene, data, n, zone=None) -> list[tuple[int, ...]]:
                 fail(f"partitions[{p}].nodes",
                      f"node {node} is owned by partitions '{first}' and '{part.name}'")
         owner[nodes] = p
-        out.append(tuple(nodes.tolist()))
+        out.append(NodeSet(nodes))
     for p, nodes in enumerate(out):
         if not nodes:
             part = scene.partitions[p]
