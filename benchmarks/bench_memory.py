@@ -152,25 +152,29 @@ def rank0_breakdown(a, T, size) -> list[str]:
                  rss_mb()))
     del graph
     t0 = time.perf_counter()
-    plan, shares = partitioning.plan(scene, mdl, size, treatments)
-    next(shares)                             # rank 0's: the whole model
+    whole, graph = partitioning.decide(scene, mdl, size, treatments)
     rows.append((f"layouts, distributions, RCM orders (planned in {time.perf_counter() - t0:.1f} s)",
                  None, rss_mb()))
-    rows.append(("layouts", footprint(plan.layouts), None))
-    numbers = sum(d.number.nbytes for d in plan.dists)
-    rows.append(("distributions: numbering [n_nodes] per partition", numbers, None))
-    rows.append(("distributions: pieces", footprint(plan.dists) - numbers, None))
+    numbers = sum(d.number.nbytes for d in whole.dists)
+    rows.append(("the whole plan: numbering [n_nodes] per partition", numbers, None))
+    rows.append(("the whole plan: layouts and pieces", footprint(whole.dists) - numbers, None))
+    items = partitioning.slices(whole, mdl, graph, size, [p.method for p in scene.partitions])
+    next(items)                              # rank 0's: its slice and the whole model
     seen = set()                             # what rank 0 holds anyway: not the shares'
     footprint(mdl, seen)
-    largest, sent = 0, 0
-    for share in shares:                     # made, pickled and dropped one at a time, as sent
+    plan_slice, largest, sent = 0, 0, 0
+    for mine, share in items:                # made, pickled and dropped one at a time, as sent
+        plan_slice = max(plan_slice, footprint(mine))
         largest = max(largest, footprint(share, set(seen)))
-        sent = max(sent, len(pickle.dumps(share, protocol=5, buffer_callback=lambda b: None)))
-        del share
+        sent = max(sent, len(pickle.dumps((mine, share), protocol=5,
+                                          buffer_callback=lambda b: None)))
+        del mine, share
+    rows.append((f"largest slice of the plan, ranks 1..{size - 1} (their pieces; the "
+                 "numbering of their nodes and neighbours)", plan_slice, None))
     rows.append((f"largest share of ranks 1..{size - 1} (cells and bonds)", largest,
                  None))
-    rows.append((f"largest share of ranks 1..{size - 1}, pickled in band (pickle 5 as "
-                 "mpi4py.util.pkl5 sends it: the arrays travel from their own memory)", sent,
+    rows.append((f"largest slice and share of ranks 1..{size - 1}, pickled in band (pickle 5 "
+                 "as mpi4py.util.pkl5 sends it: the arrays travel from their own memory)", sent,
                  rss_mb()))
     lines = [f"Rank 0's set-up for {size} ranks, replayed stage by stage in one process "
              f"({n:,} nodes): the arrays each stage holds (numpy arrays reachable from its "

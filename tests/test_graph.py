@@ -204,3 +204,55 @@ def test_owned_nonzeros_is_the_brute_force_count(make, mixed, monkeypatch):
     monkeypatch.setattr(partitioning, "NONZERO_CHUNK", 2)
     assert partitioning.owned_nonzeros(g, owned, mdl.dofmap) == brute > 0
     assert (mdl.dofmap.block is None) == mixed == (len(np.unique(counts)) > 1)
+
+
+def test_chunked_induced_and_reach_are_the_whole_reads():
+    """Graph.induced read a few rows at a time is the one-pass result, and
+    Graph.reach is the nodes with their neighbours, each once, sorted."""
+    rng = np.random.default_rng(5)
+    n = 900
+    g = Graph.from_cells(n, [rng.integers(0, n, (400, 4)), rng.integers(0, n, (300, 2))])
+    nodes = np.sort(rng.choice(n, 500, replace=False))
+    whole = g.induced(nodes, chunk=n)
+    for chunk in (1, 7, 64):
+        part = g.induced(nodes, chunk=chunk)
+        assert all(np.array_equal(a, b) for a, b in zip(part, whole))
+    some = rng.choice(n, 40, replace=False)
+    want = np.unique(np.concatenate([some, g.rows(some)]))
+    assert np.array_equal(g.reach(some, chunk=3), want)
+
+
+def test_a_ranks_slice_of_the_plan_numbers_what_its_share_reaches():
+    """distribute.Distribution.slice_for: a rank keeps its own piece, the
+    partition's external nodes and DOF offsets, and the numbering of its held
+    nodes and their neighbours (the same numbers as the whole plan's, -1
+    beyond them), never an array over every node."""
+    from types import SimpleNamespace
+    from solver.model import layout as overlap
+    from solver.model.dofmap import DofMap
+    from solver.partitions import distribute
+    m = 10
+    idx = np.arange((m + 1) ** 2).reshape(m + 1, m + 1)
+    quads = np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]], -1).reshape(-1, 4)
+    g = Graph.from_cells(idx.size, [quads])
+    left = idx[:, :6].ravel()
+    parts = [SimpleNamespace(name="a", nodes=left),
+             SimpleNamespace(name="b", nodes=np.setdiff1d(idx.ravel(), left))]
+    lay = overlap.derive(g, parts, [2, 1])
+    dofmap = DofMap.uniform(idx.size, 2)
+    for p in range(2):
+        dist = distribute.split(lay[p], g, 3)
+        for k, piece in enumerate(dist.pieces):
+            near = g.reach(piece.held)
+            part = dist.slice_for(k, near, dofmap)
+            assert part.layout is None and isinstance(part.number, distribute.Numbering)
+            assert [q is not None for q in part.pieces] == [q == k for q in range(3)]
+            assert np.array_equal(part.number[near], dist.number[near])
+            far = np.setdiff1d(idx.ravel(), near)
+            assert (part.number[far] == -1).all() and far.size
+            assert part.dofs(k, dofmap) == dist.dofs(k, dofmap)
+            assert np.array_equal(part.held(), np.intersect1d(dist.held(), near))
+            assert np.array_equal(part.external, lay[p].external)
+            assert part.n_held == dist.n_held and part.n_layers == dist.n_layers
+        none = dist.slice_for(None, None, dofmap)
+        assert all(q is None for q in none.pieces) and (none.number[idx.ravel()] == -1).all()

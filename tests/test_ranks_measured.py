@@ -104,7 +104,7 @@ def test_decide_from_constructed_walls():
 def test_nothing_to_time_where_nothing_can_change():
     class Built:
         assignment = type("A", (), {"ranks": ((0,), (1,))})
-        layouts = [type("L", (), {"n_owned": 1999})] * 2
+        owned_counts = [1999] * 2
     scene = _Scene(_Spec("a"), _Spec("b"))
     assert cannot_change(scene, Built, 1) == "one rank serves every partition"
     assert cannot_change(scene, Built, 2) == "2 ranks for 2 partitions: one rank each"
@@ -114,7 +114,7 @@ def test_nothing_to_time_where_nothing_can_change():
     assert cannot_change(scene, Riding, 2) is None
 
     class Large(Built):                   # a cheap partition might ride beside half of it
-        layouts = [type("L", (), {"n_owned": 2000})] * 2
+        owned_counts = [2000] * 2
     assert cannot_change(scene, Large, 2) is None
     assert cannot_change(scene, Built, 3) is None
     assert cannot_change(_Scene(_Spec("a"), _Spec("b"), _Spec("c")), Built, 2) is None   # placement

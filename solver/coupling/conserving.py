@@ -257,6 +257,7 @@ class Conserving(OwnSides):
         f, c = decided.f, decided.c
         self.f, self.c, self.iface, self._scene = f, c, decided.iface, scene
         self.layouts, self.sides = decided.layouts, decided.assignment
+        self.owned_counts = [lay.n_owned for lay in decided.layouts]
         if say is not None and comm.size > 1:
             for line in self.sides.lines([p.name for p in scene.partitions]):
                 say(line)

@@ -33,32 +33,34 @@ class Exchange:
 
     def __init__(self, comm, dists, ranks, parts, dofmap, receivers=None):
         P = init()
-        n_nodes = dists[0].number.size
         counts = dofmap.counts
-        wanted = np.zeros(n_nodes, bool)                  # nodes some receiver holds as external
-        for q, dist in enumerate(dists):
-            if receivers is None or q in receivers:
-                wanted[dist.layout.external] = True
+        wanted = [d.external for q, d in enumerate(dists) if receivers is None or q in receivers]
+        wanted = np.unique(np.concatenate(wanted)) if wanted else np.zeros(0, np.int64)
         # the global Vec: every rank's pieces in rank order, each [u | v | a] of its sent DOFs
-        g_base = np.full(n_nodes, -1, dtype=np.int64)     # owner piece's block start
-        g_stride = np.zeros(n_nodes, dtype=np.int64)      # its sent DOFs (one field)
-        g_pos = np.zeros(n_nodes, dtype=np.int64)         # node's first DOF in its sent list
-        at, mine, local_size = 0, [], 0
-        for r in range(comm.size):
-            for p in ranks.partitions_on(r):
-                own = dists[p].pieces[ranks.ranks[p].index(r)].owned
-                at_node = np.flatnonzero(wanted[own])
-                sent = own[at_node]
-                n_sent = dofmap.count(sent)
-                g_base[sent] = at
-                g_stride[sent] = n_sent
-                g_pos[sent] = dofmap.starts(sent)
-                at += 3 * n_sent
-                if r == comm.rank and n_sent:
-                    mine.append((p, at_node, sent))
-                    local_size += 3 * n_sent
+        mine, local_size = [], 0
+        for p in ranks.partitions_on(comm.rank):
+            own = dists[p].pieces[ranks.ranks[p].index(comm.rank)].owned
+            at_node = np.flatnonzero(np.isin(own, wanted))
+            sent = own[at_node]
+            n_sent = dofmap.count(sent)
+            if n_sent:
+                mine.append((p, at_node, sent, local_size, n_sent))
+                local_size += 3 * n_sent
+        at = comm.exscan(local_size) if comm.size > 1 else 0
+        at = at or 0                                      # (exscan gives rank 0 None)
+        # every sent node's owner block start, sent DOFs (one field) and first
+        # DOF in its sent list: the interfaces only, gathered on every rank
+        rows = [(s, np.full(s.size, at + g0), np.full(s.size, n), dofmap.starts(s))
+                for _, _, s, g0, n in mine] or [(np.zeros(0, np.int64),) * 4]
+        cols = [np.concatenate(c) for c in zip(*rows)]
+        if comm.size > 1:
+            cols = [np.concatenate(c) for c in zip(*comm.allgather(cols))]
+        order = np.argsort(cols[0])
+        g_node, g_base, g_stride, g_pos = (c[order] for c in cols)
+        total = comm.allreduce(local_size) if comm.size > 1 else local_size
+        mine = [(p, at_node, sent) for p, at_node, sent, _, _ in mine]
         self.G_arr = np.zeros(local_size)
-        self.G = vec_on(self.G_arr, comm, size=(local_size, at))
+        self.G = vec_on(self.G_arr, comm, size=(local_size, total))
         self._send, g_at = [], 0
         by_index = {p.layout.index: p for p in parts}
         for index, at_node, sent in mine:                  # this rank's pieces, in rank order
@@ -74,8 +76,9 @@ class Exchange:
             ext = p.layout.external
             n_ext = dofmap.count(ext)
             e_dof = np.arange(n_ext)                                        # local external DOF
-            q_dof = ranges(g_base[ext] + g_pos[ext], counts[ext])
-            stride = np.repeat(g_stride[ext], counts[ext])
+            g = np.searchsorted(g_node, ext)                                # its owner's sent entry
+            q_dof = ranges(g_base[g] + g_pos[g], counts[ext])
+            stride = np.repeat(g_stride[g], counts[ext])
             for f in range(3):                                              # u, v, a blocks
                 src.append(q_dof + f * stride)
                 dst.append(x_at + f * n_ext + e_dof)

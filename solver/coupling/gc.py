@@ -102,6 +102,7 @@ class GravouilCombescure(OwnSides):
         a, b = plan.index
         specs, iface = scene.partitions, plan.iface
         self.assignment, self.layouts, self.iface = plan.assignment, plan.layouts, iface
+        self.owned_counts = [lay.n_owned for lay in plan.layouts]
         if comm.size > 1 and say is not None:
             for line in plan.assignment.lines([p.name for p in specs]):
                 say(line)

@@ -17,9 +17,10 @@ stages call instead of testing the scheme's name:
   to build on, :mod:`solver.driver.balance`).
 
 Defining the class registers it (:mod:`solver.scene.registry`).  A built scheme
-has ``parts``, ``layouts``, ``freqs``, ``model``, ``exchanges``, ``clocks`` and
-``assignment`` (the partitions stage's rank assignment; None for a scheme that
-places its partitions itself) and steps with ``initialise(model)``,
+has ``parts``, ``owned_counts`` (every partition's owned nodes), ``freqs``,
+``model``, ``exchanges``, ``clocks`` and ``assignment`` (the partitions
+stage's rank assignment; None for a scheme that places its partitions
+itself) and steps with ``initialise(model)``,
 ``synchronise()``, ``step(t0)``, ``describe()``, ``memory()`` and
 ``restore_memory(memory)``.
 """

@@ -137,8 +137,8 @@ class ConcurrentOverlap(Scheme):
 
     def __init__(self, scene, built, comm):
         """``built``: the partitions stage's :class:`~solver.partitions.partitioning.Partitions`."""
-        self.parts, self.layouts, self.freqs, self.model = (built.parts, built.layouts,
-                                                             built.freqs, built.model)
+        self.parts, self.owned_counts, self.freqs, self.model = (
+            built.parts, built.owned_counts, built.freqs, built.model)
         self.assignment = built.assignment
         self.exchanges = self._exchanges(scene, built, comm)
         self.clocks = Clocks(self.parts, [p.name for p in scene.partitions], comm)
@@ -146,7 +146,7 @@ class ConcurrentOverlap(Scheme):
     def _exchanges(self, scene, built, comm) -> list:
         """One exchange refreshing every partition's externals (``exchange``;
         none without externals)."""
-        need = any(d.layout.layers for d in built.dists)
+        need = any(d.n_layers for d in built.dists)
         self.exchange = Exchange(comm, built.dists, built.assignment, built.parts,
                                  built.model.dofmap) if need else None
         return [self.exchange] if need else []

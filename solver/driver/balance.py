@@ -43,7 +43,7 @@ def cannot_change(scene, scheme, size: int) -> str | None:
         return "one partition: it has every rank"
     one_each = sorted(scheme.assignment.ranks) == [(r,) for r in range(size)]
     if size == P and one_each and not (scene.scheme.rides and any(
-            lay.n_owned >= 2 * ranks.RIDE_NODES for lay in scheme.layouts)):
+            n >= 2 * ranks.RIDE_NODES for n in scheme.owned_counts)):
         # (a cheap partition could ride beside a piece of a large one: timed)
         return f"{size} ranks for {P} partitions: one rank each"
     if all(p.ranks is not None for p in scene.partitions):
@@ -64,7 +64,7 @@ def balanced(scene, scheme_cls, scheme, mdl, comm, say):
     initial = comm.bcast(state.collect(0, scheme.parts, None, comm, scheme))
     walls, failure = measure(scheme, scene.balance_steps, scene.system_dt, comm)
     before = scheme.assignment
-    after, lines = on_root(comm, decide, scene, before, [lay.n_owned for lay in scheme.layouts],
+    after, lines = on_root(comm, decide, scene, before, scheme.owned_counts,
                            walls, failure, comm.size)
     for line in lines:
         say(line)

@@ -25,11 +25,10 @@ def _silent(*_):
 class Assembly:
     """Everything a run steps: the model (rank 0: all of it, unless it let go
     of it once shared out, :func:`solver.partitions.partitioning.lets_go`;
-    other ranks: the cells and bonds touching their nodes), all layouts, this
-    rank's partitions and the coupling scheme (which owns the exchanges)."""
+    other ranks: the cells and bonds touching their nodes), this rank's
+    partitions and the coupling scheme (which owns the exchanges)."""
 
     model: object
-    layouts: list
     parts: list
     scheme: object
     freqs: dict
@@ -141,7 +140,7 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
         scheme = balance.balanced(scene, scheme_cls, scheme, mdl, comm, say)
     if measure_wait:
         scheme.clocks.measure_wait()
-    parts, layouts, freqs, mdl = scheme.parts, scheme.layouts, scheme.freqs, scheme.model
+    parts, freqs, mdl = scheme.parts, scheme.freqs, scheme.model
     lines = []
     for part in parts:
         fr, crit = freqs[part.name]
@@ -166,4 +165,4 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
     if not_built:
         say(f"[solver]   not built: {', '.join(not_built)}")
     scheme.initialise(mdl)          # (a scheme balance kept: the state it was put back to)
-    return Assembly(mdl, layouts, parts, scheme, freqs, scene, counts)
+    return Assembly(mdl, parts, scheme, freqs, scene, counts)

@@ -185,7 +185,7 @@ class BondForce(Force):
         a, b = np.where(swap, gj, gi), np.where(swap, gi, gj)
         owned = self.part.layout.n_owned
         a_here, b_here = np.where(swap, j, i) < owned, np.where(swap, i, j) < owned
-        a_owned = np.isin(a, self.part.dist.layout.owned)
+        a_owned = ~np.isin(a, self.part.dist.external)      # (every contact particle is held)
         counted = a_here | (~a_owned & b_here)
         return np.stack([a[counted], b[counted]], axis=1)
 

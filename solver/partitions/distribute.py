@@ -13,6 +13,13 @@ A piece is a :class:`~solver.model.layout.Layout` whose ``owned`` are its chunk
 puts piece 0's held nodes first, then piece 1's, and so on; ghosts *within*
 the partition (rows that need another piece's nodes) are PETSc's business
 (parallel AIJ), refreshed at every MatMult.
+
+Rank 0 plans every partition's distribution with the whole model; each rank
+then receives only its *slice* (:meth:`Distribution.slice_for`): its own
+piece, the numbering of the nodes its share of the model touches (a
+:class:`Numbering`, not an array over every node) and the partition's
+external nodes (what the exchange fills, interface-sized), so no rank holds
+the plan of every node.
 """
 from __future__ import annotations
 
@@ -31,17 +38,80 @@ class Piece(Layout):
     start: int = 0                # first held node in the partition's distributed numbering
 
 
+class Numbering:
+    """A partition's distributed numbering of some nodes: ``numbering[nodes]``
+    is each node's distributed index, -1 where not held (or not known here),
+    as from an array over every node.  ``nodes`` sorted, ``numbers`` theirs
+    (all >= 0)."""
+
+    def __init__(self, nodes: np.ndarray, numbers: np.ndarray):
+        self.nodes, self.numbers = nodes, numbers
+
+    def __getitem__(self, nodes) -> np.ndarray:
+        nodes = np.asarray(nodes, dtype=np.int64)
+        if not self.nodes.size:
+            return np.full(nodes.shape, -1, dtype=np.int64)
+        pos = np.minimum(np.searchsorted(self.nodes, nodes), self.nodes.size - 1)
+        return np.where(self.nodes[pos] == nodes, self.numbers[pos], -1)
+
+
 @dataclass(frozen=True)
 class Distribution:
-    """The pieces of one partition and its distributed node numbering."""
+    """The pieces of one partition and its distributed node numbering.  Rank
+    0's plan holds the whole partition (``layout``), every piece and an
+    array over every node; a rank's slice (:meth:`slice_for`) has no
+    ``layout``, its own piece only (``None`` for the others) and the
+    numbering of the nodes near it."""
 
-    layout: Layout                # the whole partition
-    pieces: tuple[Piece, ...]
-    number: np.ndarray            # [n_nodes] distributed index of every held node, -1 elsewhere
+    layout: Layout | None         # the whole partition (None in a slice)
+    pieces: tuple                 # every piece (Piece; None for another rank's in a slice)
+    number: object                # node -> distributed index, -1 elsewhere (array or Numbering)
+    n_held: int                   # held nodes of the whole partition
+    external: np.ndarray          # the whole partition's external nodes (what exchanges fill)
+    n_layers: int                 # external layers
+    dof_starts: tuple | None = None   # a slice's: every piece's first DOF, then the total
 
-    @property
-    def n_held(self) -> int:
-        return self.layout.n_held
+    @classmethod
+    def of(cls, layout: Layout, pieces, number) -> "Distribution":
+        return cls(layout, tuple(pieces), number, layout.n_held, layout.external,
+                   len(layout.layers))
+
+    def held(self) -> np.ndarray:
+        """The whole partition's held nodes (a slice: those near its piece,
+        all that its share of the model can ask about)."""
+        if self.layout is not None:
+            return self.layout.held
+        if isinstance(self.number, Numbering):
+            return self.number.nodes
+        return np.flatnonzero(self.number >= 0)
+
+    def dofs(self, piece: int, dofmap) -> tuple[int, int]:
+        """(first DOF of ``piece`` in the partition's distributed DOF numbering,
+        the partition's DOFs)."""
+        starts = self.dof_starts or self._dof_starts(dofmap)
+        return int(starts[piece]), int(starts[-1])
+
+    def _dof_starts(self, dofmap) -> tuple:
+        return tuple(np.concatenate([[0], np.cumsum([dofmap.count(pc.held)
+                                                     for pc in self.pieces])]).tolist())
+
+    def slice_for(self, piece, near, dofmap) -> "Distribution":
+        """What the rank of ``piece`` (None: a rank without one) needs: its
+        piece and the numbering of ``near`` (sorted: the nodes its share of
+        the model touches, its held nodes and their neighbours).  Nodes with differing
+        DOF counts keep the array over every node (their scalar matrix numbers
+        DOFs through every node before its own)."""
+        pieces = [None] * len(self.pieces)
+        number = Numbering(np.zeros(0, np.int64), np.zeros(0, np.int64))
+        if piece is not None:
+            pieces[piece] = self.pieces[piece]
+            if dofmap.block is None:
+                number = self.number
+            else:
+                at = self.number[near]
+                number = Numbering(near[at >= 0], at[at >= 0])
+        return Distribution(None, tuple(pieces), number, self.n_held, self.external,
+                            self.n_layers, self._dof_starts(dofmap))
 
 
 def whole(layout: Layout, n_nodes: int) -> Distribution:
@@ -51,7 +121,7 @@ def whole(layout: Layout, n_nodes: int) -> Distribution:
                   layout.layers, layout.external_owner)
     number = np.full(n_nodes, -1, dtype=np.int64)
     number[piece.held] = np.arange(piece.n_held)
-    return Distribution(layout, (piece,), number)
+    return Distribution.of(layout, (piece,), number)
 
 
 def rcm(nodes: np.ndarray, graph) -> np.ndarray:
@@ -110,7 +180,7 @@ def split(layout: Layout, graph, k: int, order=True) -> Distribution:
         number[piece.held] = start + np.arange(piece.n_held)
         start += piece.n_held
         pieces.append(piece)
-    return Distribution(layout, tuple(pieces), number)
+    return Distribution.of(layout, pieces, number)
 
 
 def piece_on(dists, assignment, p: int, rank: int) -> Piece:

@@ -124,8 +124,7 @@ class Partition:
         self.n_energy = self.n_own              # rows whose 1/2 u_i (K u)_i is this partition's
         n = self.held_dofs.size
         # this rank's rows in the partition's distributed DOF numbering
-        self.first = sum(dm.count(pc.held) for pc in self.dist.pieces[:layout.piece])
-        self.n_global = dm.count(self.dist.layout.held)
+        self.first, self.n_global = self.dist.dofs(layout.piece, dm)
         self.vectors = State(n, comm, self.integrator.work, self.prefix)
         damped = damping is not None and damping.active
         # explicit Newmark: (M + gamma h alpha M) a = f - K u~ - C v~ keeps the
@@ -185,8 +184,9 @@ class Partition:
                       diagonal=diagonal, mat_type=default_type(self.dof, solved))
 
     def whole_held(self):
-        """Held nodes of the whole partition (all its pieces)."""
-        return self.dist.layout.held
+        """Held nodes of the whole partition (all its pieces; those near this
+        piece where the rank has its slice of the plan)."""
+        return self.dist.held()
 
     def describe(self) -> str:
         lay = self.layout

@@ -2,10 +2,12 @@
 
 ``build_partitions`` takes the model and the scheme's external-data
 treatments and returns everything a coupling scheme needs to run on this
-rank (rank 0 plans from the node graph and sends each rank its share): the
-partition layouts (global), the rank assignment, every partition's
-distribution over its ranks, this rank's partition pieces, and every
-partition's frequency and critical step.  Unstable steps are refused here,
+rank (rank 0 plans from the node graph and sends each rank its slice of the
+plan and its share of the model): every partition's owned node count, the
+rank assignment, every partition's distribution over its ranks (this rank's
+slice of it: :meth:`~solver.partitions.distribute.Distribution.slice_for`),
+this rank's partition pieces, and every partition's frequency and critical
+step.  Unstable steps are refused here,
 before stepping.
 """
 from __future__ import annotations
@@ -29,9 +31,9 @@ PARTITION_TYPES = {"fem": FemPartition, "dem": DemPartition}
 
 @dataclass
 class Partitions:
-    layouts: list            # every partition's Layout
+    owned_counts: list       # every partition's owned nodes
     assignment: object       # ranks.Assignment
-    dists: list              # every partition's Distribution
+    dists: list              # every partition's Distribution (this rank's slice of it)
     parts: list              # this rank's pieces, ascending partition order
     freqs: dict              # name -> (Frequency, critical step)
     model: object            # this rank's share of the model (rank 0: all of it)
@@ -63,22 +65,27 @@ def lets_go(scene, size: int) -> bool:
 
 @dataclass
 class Plan:
-    """What rank 0 decides for everyone: small arrays sent to every rank."""
-    layouts: list
+    """What rank 0 decides for everyone; each rank receives its slice."""
+    owned_counts: list
     assignment: object
-    dists: list
+    dists: list              # every partition's Distribution (a rank's slice of it)
     freqs: dict              # dense stability of the partitions small enough for it
     problems: list
 
 
 def plan(scene, mdl, size, treatments, assignment=None):
+    """On one rank, with the whole model: what rank 0, 1, ... receive, made
+    one at a time (:func:`slices` of :func:`decide`)."""
+    whole, graph = decide(scene, mdl, size, treatments, assignment)
+    return slices(whole, mdl, graph, size, [p.method for p in scene.partitions])
+
+
+def decide(scene, mdl, size, treatments, assignment=None):
     """On one rank, with the whole model: the node graph, every partition's
     layout, the rank assignment (by estimated cost, unless ``assignment`` is
     given: a :class:`~solver.partitions.ranks.Assignment` by measured cost),
-    every partition's distribution over its ranks, the dense stability check,
-    and for every rank its share: the model's cells and bonds that touch the
-    nodes it holds.  Returns (Plan, the model shares of rank 0, 1, ... made
-    one at a time)."""
+    every partition's distribution over its ranks and the dense stability
+    check.  Returns (the whole Plan, the node graph)."""
     R = scene.system_ratio
     graph = mdl.graph()
     layouts = overlap.derive(graph, scene.partitions,
@@ -92,19 +99,30 @@ def plan(scene, mdl, size, treatments, assignment=None):
     dists = [distribute.split(lay, graph, len(assignment.ranks[p]))
              for p, lay in enumerate(layouts)]
     freqs, problems = check_stability(scene, mdl, layouts, range(len(layouts)))
-    del graph                    # (the matrices are preallocated from their own blocks)
-    return Plan(layouts, assignment, dists, freqs, problems), _shares(
-        mdl, dists, assignment, size, [p.method for p in scene.partitions])
+    return Plan([lay.n_owned for lay in layouts], assignment, dists, freqs, problems), graph
 
 
-def _shares(mdl, dists, assignment, size, methods):
-    """Every rank's share, made when asked for (rank 0 holds one other rank's at a
-    time): rank 0 keeps the whole model (it writes fields); rank r > 0 gets the
-    model's cells and bonds of the nodes it holds (no body cells where it steps
-    no fem partition: ``methods``, every partition's)."""
-    yield mdl
-    for r in range(1, size):
-        yield share_of(mdl, dists, assignment, r, methods)
+def slices(whole, mdl, graph, size, methods):
+    """Every rank's (slice of the plan ``whole``, share of the model), made
+    when asked for (rank 0 holds one other rank's at a time).  A rank's slice
+    has the pieces it steps and the distributed numbering of their nodes and
+    their neighbours in the node ``graph`` (all its share's cells and bonds
+    reach); on one rank the plan is whole.  Rank 0 gets the whole model (it builds its
+    own share later); rank r > 0 the model's cells and bonds of the nodes it
+    holds (no body cells where it steps no fem partition: ``methods``, every
+    partition's)."""
+    if size == 1:
+        yield whole, mdl
+        return
+    for r in range(size):
+        dists = []
+        for p, dist in enumerate(whole.dists):
+            on = whole.assignment.ranks[p]
+            k = on.index(r) if r in on else None
+            near = graph.reach(dist.pieces[k].held) if k is not None else None
+            dists.append(dist.slice_for(k, near, mdl.dofmap))
+        mine = Plan(whole.owned_counts, whole.assignment, dists, whole.freqs, whole.problems)
+        yield mine, (mdl if r == 0 else share_of(mdl, whole.dists, whole.assignment, r, methods))
 
 
 def share_of(mdl, dists, assignment, rank, methods):
@@ -123,7 +141,7 @@ def build_error(name: str, e: Exception) -> SceneError:
 
 def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Partitions:
     """Rank 0 plans with the whole model (``mdl``; other ranks pass None); every
-    rank gets the plan's small arrays and only its share of the model, then
+    rank gets only its slice of the plan and its share of the model, then
     builds its pieces.  ``mdl`` a :class:`Whole`: rank 0 keeps only its share
     (the returned model).  ``assignment``: the ranks to use instead of
     those by estimated cost (:mod:`solver.driver.balance`)."""
@@ -132,15 +150,12 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
     handed = isinstance(mdl, Whole)
     if handed:
         mdl = mdl.take()
-    decided, shares = on_root(comm, plan, scene, mdl, size, treatments, assignment,
-                              share=False) or (None, None)
-    if size > 1:
-        decided = comm.bcast(decided)
-    mdl = scatter_each(comm, shares) if size > 1 else next(shares)
-    del shares
-    release()                    # rank 0: the whole graph and the planning temporaries
-    layouts, assignment, dists, freqs = (decided.layouts, decided.assignment, decided.dists,
-                                         dict(decided.freqs))
+    items = on_root(comm, plan, scene, mdl, size, treatments, assignment, share=False)
+    decided, mdl = scatter_each(comm, items) if size > 1 else next(items)
+    del items
+    release()                    # rank 0: the whole plan, graph and planning temporaries
+    owned_counts, assignment, dists, freqs = (decided.owned_counts, decided.assignment,
+                                              decided.dists, dict(decided.freqs))
     # rank 0 builds its pieces from its share, as the others do (from the whole
     # model every mask and selection would run over all cells and bonds); it
     # keeps the whole model for what reads it after set-up (fields, counts)
@@ -184,7 +199,7 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
         for part in parts:           # refused after building: free the PETSc objects
             part.destroy()
         raise
-    return Partitions(layouts, assignment, dists, parts, freqs, whole)
+    return Partitions(owned_counts, assignment, dists, parts, freqs, whole)
 
 
 def check_stability(scene, mdl, layouts, ids):

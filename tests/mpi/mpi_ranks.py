@@ -136,7 +136,9 @@ def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
     """The command line's path: rank 0 loads and binds the scene (the mesh is
     read on rank 0 only); every rank, rank 0 too once it has shared the model
     out (no fields), holds the cells that touch its nodes, never the whole
-    mesh."""
+    mesh, and only its slice of the plan: its own piece and the numbering of
+    the nodes near it, no layout or numbering of every node."""
+    from solver.partitions.distribute import Numbering
     from solver.driver.build import build
     from solver.model import data as model_data
     from solver.tools.cli import load_on_root
@@ -158,6 +160,9 @@ def test_rank0_reads_the_mesh_and_sends_each_rank_its_cells(shared_tmp):
     whole = WORLD.bcast(sum(len(c) for c in scene_cells(scene)) if WORLD.rank == 0 else None)
     ok = (all(inh[conn].any(axis=1).all() for _, conn, _ in asm.model.cells)   # touching only
           and counts[WORLD.rank] < whole and sum(counts) >= whole)
+    ok = ok and all(p.dist.layout is None and isinstance(p.dist.number, Numbering)
+                    and p.dist.number.nodes.size < asm.model.n_nodes
+                    and sum(q is not None for q in p.dist.pieces) == 1 for p in asm.parts)
     asm.destroy()
     assert all(WORLD.allgather(ok)), counts         # (every rank fails together: no hang)
     WORLD.barrier()
