@@ -256,3 +256,19 @@ def test_a_ranks_slice_of_the_plan_numbers_what_its_share_reaches():
             assert part.n_held == dist.n_held and part.n_layers == dist.n_layers
         none = dist.slice_for(None, None, dofmap)
         assert all(q is None for q in none.pieces) and (none.number[idx.ravel()] == -1).all()
+
+
+def test_incidence_of_columns_is_that_of_the_stacked_cells():
+    """A cell family given as a tuple of its columns (a lattice's bond ends,
+    never stacked) makes the incidence matrix its [m, k] array makes, with
+    missing nodes (-1) left out either way."""
+    from solver.model.graph import incidence
+    rng = np.random.default_rng(8)
+    hexes = rng.integers(0, 50, (30, 8))
+    a, b = rng.integers(-1, 50, 40), rng.integers(0, 50, 40)
+    for pair in ((a, b), (np.abs(a), b)):
+        C1 = incidence([hexes, pair], 50)
+        C2 = incidence([hexes, np.stack(pair, axis=1)], 50)
+        assert (C1 != C2).nnz == 0 and C1.shape == (70, 50)
+        assert np.array_equal(C1.indptr, C2.indptr) and np.array_equal(C1.indices, C2.indices)
+    assert incidence([np.zeros((0, 4), int), ()], 5) is None

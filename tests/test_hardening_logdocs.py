@@ -361,3 +361,21 @@ def test_shells_on_solids_list_their_cells_not_the_rotation_ties(tmp_path):
     line = next(l for l in lines if l.startswith("block: "))
     assert f"; {hexes + on_block} elements)" in line and "tie" not in line, line
     assert figure(lines, r"total mass (\S+) kg") == digits(7800.0 * (0.1 ** 3 + 1.0 * 0.1 * 0.01), 6)
+
+
+def test_smallest_element_steps_are_those_a_stable_sort_lists():
+    """element_steps.smallest: the k smallest finite steps, smallest first and
+    ties by index, as a stable argsort of every step gave, on steps with many
+    ties (a uniform lattice) and infinite ones (fixed ends)."""
+    import numpy as np
+    from solver.model.element_steps import smallest
+    rng = np.random.default_rng(2)
+    for _ in range(200):
+        n = int(rng.integers(1, 300))
+        v = rng.integers(0, 4, n).astype(float)
+        v[rng.random(n) < 0.3] = np.inf
+        finite = np.flatnonzero(np.isfinite(v))
+        if finite.size:
+            k = min(3, finite.size)
+            want = finite[np.argsort(v[finite], kind="stable")[:k]]
+            assert np.array_equal(smallest(v, k), want)

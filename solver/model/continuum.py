@@ -135,7 +135,7 @@ class ContinuumArrays:
         lat = self.lattice
         conns = [conn for _, conn, _ in list(self.cells) + list(lat.carried if lat is not None else ())]
         if lat is not None and lat.bonds:
-            conns.append(np.stack(lat.bonds[:2], axis=1))
+            conns.append(tuple(lat.bonds[:2]))          # (the ends as they are: no copy)
         return Graph.from_cells(self.n_nodes, conns)
 
 

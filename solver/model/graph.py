@@ -18,21 +18,52 @@ from solver.model.dofmap import ranges
 
 def incidence(conns, n_cols: int):
     """The cell-node incidence matrix C [cells, n_cols] (scipy CSR of bools) of
-    ``conns`` ([m, k] arrays, one per cell family; entries below 0 are left
-    out, a repeated node is kept twice), int32 indices while they fit; None
-    when there are no cells.  C^T C is the node graph's pattern
-    (:meth:`Graph.from_cells`), R^T C that of a matrix's rows
+    ``conns`` (one per cell family: an [m, k] array, or a tuple of its k
+    columns, e.g. a lattice's bond ends, so that no [m, k] copy is made;
+    entries below 0 are left out, a repeated node is kept twice), int32
+    indices while they fit, written straight into one array; None when there
+    are no cells.  C^T C is the node graph's pattern (:meth:`Graph.from_cells`),
+    R^T C that of a matrix's rows
     (:func:`solver.partitions.assembly.block_nonzeros`)."""
     from scipy.sparse import csr_matrix  # lazy: scipy loads only where it is used
-    conns = [c.reshape(len(c), -1) for c in map(np.asarray, conns) if c.size]
+    conns = [_columns(c) for c in conns]
+    conns = [c for c in conns if c and len(c[0])]
     if not conns:
         return None
-    itype = np.int32 if max(n_cols, sum(c.size for c in conns)) < 2 ** 31 else np.int64
-    width = np.concatenate([(c >= 0).sum(axis=1) for c in conns]).astype(itype)
-    col = np.concatenate([c[c >= 0] for c in conns]).astype(itype, copy=False)
+    total = sum(len(c[0]) * len(c) for c in conns)
+    itype = np.int32 if max(n_cols, total) < 2 ** 31 else np.int64
+    widths, col, at = [], np.empty(total, dtype=itype), 0
+    for cols in conns:
+        m, k = len(cols[0]), len(cols)
+        if any((c < 0).any() for c in cols):          # missing nodes: kept ones only
+            c = np.stack(cols, axis=1)
+            keep = c >= 0
+            widths.append(keep.sum(axis=1).astype(itype))
+            kept = c[keep]
+            col[at:at + kept.size] = kept
+            at += kept.size
+        else:
+            block = col[at:at + m * k].reshape(m, k)
+            for j, c in enumerate(cols):
+                block[:, j] = c
+            widths.append(np.full(m, k, dtype=itype))
+            at += m * k
+    width = np.concatenate(widths)
     ptr = np.zeros(width.size + 1, dtype=itype)
     np.cumsum(width, out=ptr[1:])
-    return csr_matrix((np.ones(col.size, bool), col, ptr), shape=(width.size, n_cols))
+    return csr_matrix((np.ones(at, bool), col[:at], ptr), shape=(width.size, n_cols))
+
+
+def _columns(conn) -> tuple:
+    """A cell family's node columns (views): of an [m, k] array (m x 1 if 1-D)
+    or a tuple of k columns as given."""
+    if isinstance(conn, tuple):
+        return tuple(np.asarray(c) for c in conn)
+    conn = np.asarray(conn)
+    if not conn.size:
+        return ()
+    conn = conn.reshape(len(conn), -1)
+    return tuple(conn[:, j] for j in range(conn.shape[1]))
 
 
 CHUNK = 65536                   # rows from_cells drops the diagonal of at a time
@@ -44,8 +75,9 @@ class Graph(NamedTuple):
 
     @classmethod
     def from_cells(cls, n_nodes: int, conns) -> "Graph":
-        """Nodes that share a cell of any of ``conns`` ([m, k] node arrays, one per
-        cell family; a bond or spring is a 2-node cell; a cell may repeat a node):
+        """Nodes that share a cell of any of ``conns`` ([m, k] node arrays or
+        tuples of their k columns, one per cell family; a bond or spring is a
+        2-node cell; a cell may repeat a node):
         the pattern of C^T C, C the cell-node incidence matrix, less its diagonal.
         One sparse product (a few bytes per nonzero), no edge keys to sort.
         ``indices`` are int32 while the node ids fit (76 MB instead of 151 MB
@@ -77,7 +109,7 @@ class Graph(NamedTuple):
     @classmethod
     def from_pairs(cls, n_nodes: int, a: np.ndarray, b: np.ndarray) -> "Graph":
         """From undirected edges (a[i], b[i]); duplicates and self-loops dropped."""
-        return cls.from_cells(n_nodes, [np.stack([np.asarray(a), np.asarray(b)], axis=1)])
+        return cls.from_cells(n_nodes, [(np.asarray(a), np.asarray(b))])
 
     @property
     def n_nodes(self) -> int:
