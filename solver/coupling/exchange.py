@@ -77,6 +77,10 @@ class Exchange:
             n_ext = dofmap.count(ext)
             e_dof = np.arange(n_ext)                                        # local external DOF
             g = np.searchsorted(g_node, ext)                                # its owner's sent entry
+            found = g_node[np.minimum(g, g_node.size - 1)] if g_node.size else g_node
+            if not np.array_equal(found, ext):
+                raise RuntimeError(f"exchange: partition '{p.name}' holds external nodes no "
+                                   "piece sends")
             q_dof = ranges(g_base[g] + g_pos[g], counts[ext])
             stride = np.repeat(g_stride[g], counts[ext])
             for f in range(3):                                              # u, v, a blocks

@@ -22,7 +22,8 @@ class NodeSet:
         self.ids = ids
 
     def __array__(self, dtype=None, copy=None):
-        return self.ids if dtype is None else self.ids.astype(dtype)
+        ids = self.ids if dtype is None else self.ids.astype(dtype, copy=False)
+        return ids.copy() if copy else ids
 
     def __len__(self) -> int:
         return self.ids.size
@@ -41,13 +42,14 @@ class NodeSet:
             return np.array_equal(self.ids, np.asarray(other, dtype=np.int64))
         return NotImplemented
 
-    def __hash__(self) -> int:
-        return hash(self.ids.tobytes())
+    def __hash__(self) -> int:                # as the tuple it equals
+        return hash(tuple(self.ids.tolist()))
 
     def __getstate__(self):
-        return self.ids
+        return (self.ids,)
 
-    def __setstate__(self, ids):
+    def __setstate__(self, state):
+        ids, = state
         ids.flags.writeable = False
         self.ids = ids
 
