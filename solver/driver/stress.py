@@ -1,10 +1,11 @@
 """Stress at continuum probes: sigma_cc along the probe's component c.
 
 Both are linear in the displacement, so each probe is one row of coefficients
-over the DOFs of its node and neighbours, assembled over the partition's held
-DOFs (:meth:`Partition.operator`) and kept as a matrix of the probe rows alone
-(:func:`probe_rows`): one MatMult per system step gives every probe of the
-partition, its ghosts refreshed by PETSc whatever the rank layout.
+over the DOFs of its node and neighbours, in the partition's distributed DOF
+numbering: a matrix of the probe rows alone, with the partition operator's
+column layout (:func:`probe_rows`), never a partition-sized one.  One MatMult
+per system step gives every probe of the partition, its ghosts refreshed by
+PETSc whatever the rank layout.
 
 - FE node: the average over the node's FE cells of the cell-averaged stress
   (D B u averaged over the cell's quadrature points), the stress the field
@@ -100,7 +101,7 @@ class StressProbes:
         rho = scene.model.material.rho
         dim = mdl.dof
         for part in parts:
-            blocks, rows = [], []
+            entries, names = [], []
             current = []
             nonlinear = not part.force.linear
             for probe in scene.probes:
@@ -118,17 +119,13 @@ class StressProbes:
                     bonds = part.force.bonds_at(loc)
                     current.append((probe.name, loc, bonds, probe.component,
                                     mdl.mass[probe.node] / rho))
-                conn = np.unique(np.concatenate([[probe.node], nodes]))
-                where = np.searchsorted(conn, nodes)
-                Ke = np.zeros((1, conn.size * dim, conn.size * dim))
-                row = int(np.searchsorted(conn, probe.node)) * dim + probe.component
-                np.add.at(Ke[0, row], (where[:, None] * dim + np.arange(dim)).ravel(), coef.ravel())
-                blocks.append((conn[None, :], Ke))
-                rows.append((probe.name, int(part.starts[loc]) + probe.component))
-            S, at = probe_rows(part.operator(blocks), [i for _, i in rows])
-            out = np.zeros(S.getLocalSize()[0])
+                cols = (part.dist.number[np.asarray(nodes)][:, None] * dim + np.arange(dim)).ravel()
+                entries.append((cols, np.asarray(coef, dtype=float).ravel()))
+                names.append(probe.name)
+            S = probe_rows(part, entries, dim)
+            out = np.zeros(len(names))
             self.ops.append((S, part.u, vec_on(out, part.comm), out,
-                             [(name, j) for j, (name, _) in zip(at, rows)]))
+                             [(name, i) for i, name in enumerate(names)]))
             if nonlinear:               # every piece: the ghost refresh is collective
                 self.current.append((part.force, part.u, current))
 
@@ -165,30 +162,26 @@ class StressProbes:
         self.ops = []
 
 
-def probe_rows(S, rows):
-    """(A matrix of the block rows of the square partition operator ``S`` that
-    hold ``rows`` (this rank's local indices), with S's column layout; where
-    each of ``rows`` is in it).  Collective; S is destroyed.  A MatMult then
-    costs the probes' entries, not a pass over every row of the partition
-    (3.7 ms per system step for two probes on the 1.15 M-DOF bar, 8 % of its
-    1-rank step, before)."""
+def probe_rows(part, entries, dim):
+    """The matrix of this rank's probe rows of ``part`` (``entries``: one
+    (columns, coefficients) per probe, columns in the partition's distributed
+    DOF numbering of ``dim`` DOFs a node; a column may repeat: summed), with
+    the partition operator's column layout, so that it multiplies the
+    partition's displacement Vec.  Collective on the partition's ranks.  A
+    MatMult costs the probes' entries, and set-up makes no partition-sized
+    matrix (it was a dem rank's set-up peak on the 2.27 M-DOF bar)."""
     P = init()
-    lo = S.getOwnershipRange()[0]
-    clo, chi = S.getOwnershipRangeColumn()
-    comm = S.getComm()
-    bs = S.getBlockSize()                        # BAIJ takes whole block rows
-    rows = np.asarray(rows, dtype=np.int64)
-    kept = (np.unique(rows // bs)[:, None] * bs + np.arange(bs)).ravel()
-    isrow = P.IS().createGeneral((kept + lo).astype(P.IntType), comm=comm)
-    isrow.setBlockSize(bs)
-    iscol = P.IS().createStride(chi - clo, clo, 1, comm=comm)
-    iscol.setBlockSize(bs)
-    try:
-        return S.createSubMatrix(isrow, iscol), np.searchsorted(kept, rows)
-    finally:
-        isrow.destroy()
-        iscol.destroy()
-        S.destroy()
+    n_cols = part.layout.n_held * dim
+    S = P.Mat().createAIJ(((len(entries), None), (n_cols, part.dist.n_held * dim)),
+                          comm=part.comm)
+    # one bound for every row, on and off the diagonal block (per-row arrays
+    # hang a rank that has no row: petsc4py then takes another, collective path)
+    S.setPreallocationNNZ(max((np.unique(c).size for c, _ in entries), default=1))
+    first = S.getOwnershipRange()[0]
+    for i, (cols, coef) in enumerate(entries):
+        S.setValues([first + i], cols.astype(P.IntType), coef[None, :], addv=True)
+    S.assemble()
+    return S
 
 
 def build(scene, mdl, parts):
