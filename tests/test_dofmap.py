@@ -69,3 +69,28 @@ def test_mixed_chain_follows_plain_chain_and_exact_oscillators():
         omega = np.arccos(1 - 0.5 * h * h * K2)
         exact = U2 * np.cos(omega * per * np.arange(n + 1))
         assert np.abs(h_mixed[(node, 1)] - exact).max() < 1e-9 * U2
+
+
+def test_a_uniform_map_holds_no_array_over_the_nodes():
+    """DofMap.uniform answers as the map of an explicit count array does
+    (counts, offsets read by index arrays of any shape and by slices, starts,
+    dofs, node_of, numbered), pickles in a few bytes and holds no array as
+    long as the nodes."""
+    import pickle
+    import numpy as np
+    from solver.model.dofmap import DofMap
+    n = 1000
+    a, b = DofMap.uniform(n, 3), DofMap(np.full(n, 3))
+    nodes = np.array([[0, n - 1], [400, 2]])
+    assert (a.n_nodes, a.n_dofs, a.largest, a.block) == (b.n_nodes, b.n_dofs, b.largest, b.block)
+    assert np.array_equal(a.offsets[nodes], b.offsets[nodes]) and a.offsets[-1] == b.offsets[-1]
+    assert np.array_equal(a.offsets[:-1], b.offsets[:-1]) and np.array_equal(a.counts[nodes], b.counts[nodes])
+    for f in ("starts", "dofs"):
+        assert np.array_equal(getattr(a, f)([5, 1, 7]), getattr(b, f)([5, 1, 7]))
+    d = np.array([0, 5, 3 * n - 1])
+    assert all(np.array_equal(x, y) for x, y in zip(a.node_of(d), b.node_of(d)))
+    num = np.where(np.arange(n) % 3 == 0, -1, np.arange(n))
+    assert np.array_equal(a.numbered(num), b.numbered(num))
+    back = pickle.loads(pickle.dumps(a))
+    assert len(pickle.dumps(a)) < 200 and back.n_dofs == 3 * n and back.counts.strides == (0,)
+    assert a.counts.base is not None and a.counts.strides == (0,)
