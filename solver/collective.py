@@ -6,9 +6,12 @@ raised on every rank, and its result is broadcast if asked.  ``scatter_each``
 sends every rank its share of rank 0's plan, one at a time.  ``agree`` raises
 on every rank the first error any rank had.  ``exact_sum`` adds arrays whose
 every entry is one rank's (zero on the others) with one allreduce: the sum is
-exact, the 1-rank values to the last bit.
+exact, the 1-rank values to the last bit.  ``idle`` is a barrier the ranks
+done first pass asleep: every set-up collective above waits with it.
 """
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
@@ -26,6 +29,7 @@ def on_root(comm, fn, *args, share: bool = True):
         except SolverError as e:
             error = e
     if comm is not None and comm.size > 1:
+        idle(comm)                              # (the others wait asleep for rank 0)
         if share:
             result, error = comm.bcast((result, error))
         else:
@@ -33,6 +37,22 @@ def on_root(comm, fn, *args, share: bool = True):
     if error is not None:
         raise error
     return result
+
+
+def idle(comm):
+    """Collective: a barrier that the ranks waiting for others pass asleep
+    (a nonblocking barrier tested every POLL s) instead of in MPI's busy
+    poll.  For set-up steps whose ranks finish far apart (rank 0 reading and
+    planning alone; one rank's partition built or checked long after the
+    others'): a rank spinning in MPI slowed rank 0's model build 2.5x and its
+    fem piece 2x on 2 ranks of this 2-core machine."""
+    import time
+    req = comm.Ibarrier()
+    while not req.Test():
+        time.sleep(POLL)
+
+
+POLL = 0.002                                # seconds between the tests of idle's barrier
 
 
 def scatter_each(comm, items):
@@ -49,7 +69,10 @@ def scatter_each(comm, items):
 
     big = pkl5.Intracomm(comm)
     if comm.rank != 0:
+        while not big.iprobe(source=0, tag=SCATTER_TAG):   # asleep while rank 0 makes it
+            time.sleep(POLL)
         item = big.recv(source=0, tag=SCATTER_TAG)
+        idle(comm)
         error = comm.bcast(None)
         if error is not None:
             raise error
@@ -68,6 +91,7 @@ def scatter_each(comm, items):
             SolverError(f"rank 0 could not make rank {r}'s share ({describe(e)})")
         for rest in range(max(r, 1), comm.size):        # the ranks still waiting
             big.send(None, dest=rest, tag=SCATTER_TAG)
+    idle(comm)
     comm.bcast(error)
     if error is not None:
         raise error from (cause if cause is not error else None)
@@ -78,7 +102,10 @@ SCATTER_TAG = 2301                          # scatter_each's messages
 
 
 def agree(comm, error):
-    """Collective: raise the first rank's error on every rank if any rank has one."""
+    """Collective: raise the first rank's error on every rank if any rank has
+    one (the ranks done first wait asleep: :func:`idle`)."""
+    if comm.size > 1:
+        idle(comm)
     errors = comm.allgather(error) if comm.size > 1 else [error]
     first = next((e for e in errors if e is not None), None)
     if first is not None:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver.collective import agree, on_root, scatter_each
+from solver.collective import agree, idle, on_root, scatter_each
 from solver.memory import release
 from solver.partitions import distribute, integrators
 from solver.model import layout as overlap
@@ -240,6 +240,7 @@ def check_large(scene, parts, freqs, comm, say):
         if freqs.get(part.name, (None,))[0] is None:
             local[part.name] = stability.assembled(scene, part)
     problems = []
+    idle(comm)                   # (a partition's check may take far longer than another's)
     for chunk in comm.allgather(local):
         for name, (fr, crit, problem) in chunk.items():
             freqs[name] = (fr, crit)

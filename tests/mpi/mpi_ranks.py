@@ -193,3 +193,19 @@ def test_errors_found_on_rank0_stop_every_rank(shared_tmp):
     with pytest.raises(LaunchError, match="ranks"):
         build(from_dict(raw), WORLD)
     WORLD.barrier()
+
+
+def test_ranks_waiting_for_rank0_wait_asleep():
+    """collective.on_root and agree: while rank 0 works alone (here: 1 s) the
+    other ranks wait asleep (collective.idle), not in MPI's busy poll, which
+    took CPU time from rank 0's model build on this 2-core machine."""
+    import time
+    from solver.collective import agree, on_root
+    t0 = time.process_time()
+    on_root(WORLD, time.sleep, 1.0)
+    if WORLD.rank == 0:
+        time.sleep(1.0)
+    agree(WORLD, None)
+    cpu = time.process_time() - t0
+    assert all(WORLD.allgather(WORLD.rank == 0 or cpu < 0.5)), cpu
+    WORLD.barrier()
