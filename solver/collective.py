@@ -46,7 +46,6 @@ def idle(comm):
     planning alone; one rank's partition built or checked long after the
     others'): a rank spinning in MPI slowed rank 0's model build 2.5x and its
     fem piece 2x on 2 ranks of this 2-core machine."""
-    import time
     req = comm.Ibarrier()
     while not req.Test():
         time.sleep(POLL)
