@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver.model.dofmap import ranges
+from solver.partitions.distribute import piece_on
 from solver.petscutil import init, vec_on
 
 
@@ -39,7 +40,7 @@ class Exchange:
         # the global Vec: every rank's pieces in rank order, each [u | v | a] of its sent DOFs
         mine, local_size = [], 0
         for p in ranks.partitions_on(comm.rank):
-            own = dists[p].pieces[ranks.ranks[p].index(comm.rank)].owned
+            own = piece_on(dists, ranks, p, comm.rank).owned
             at_node = np.flatnonzero(np.isin(own, wanted))
             sent = own[at_node]
             n_sent = dofmap.count(sent)
@@ -57,10 +58,9 @@ class Exchange:
             cols = [np.concatenate(c) for c in zip(*comm.allgather(cols))]
         order = np.argsort(cols[0])
         g_node, g_base, g_stride, g_pos = (c[order] for c in cols)
-        total = comm.allreduce(local_size) if comm.size > 1 else local_size
         mine = [(p, at_node, sent) for p, at_node, sent, _, _ in mine]
         self.G_arr = np.zeros(local_size)
-        self.G = vec_on(self.G_arr, comm, size=(local_size, total))
+        self.G = vec_on(self.G_arr, comm)           # (PETSc sums the local sizes)
         self._send, g_at = [], 0
         by_index = {p.layout.index: p for p in parts}
         for index, at_node, sent in mine:                  # this rank's pieces, in rank order

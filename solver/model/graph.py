@@ -97,8 +97,9 @@ class Graph(NamedTuple):
         for a in range(0, n_nodes, CHUNK):
             b = min(a + CHUNK, n_nodes)
             rows = col[ptr[a]:ptr[b]]
-            off = rows != np.repeat(np.arange(a, b, dtype=col.dtype), deg[a:b])
-            deg[a:b] -= np.bincount(np.repeat(np.arange(b - a), deg[a:b])[~off], minlength=b - a)
+            row = np.repeat(np.arange(b - a), deg[a:b])
+            off = rows != row + a
+            deg[a:b] -= np.bincount(row[~off], minlength=b - a)
             kept = rows[off]
             col[at:at + kept.size] = kept
             at += kept.size

@@ -88,19 +88,23 @@ class Distribution:
     def dofs(self, piece: int, dofmap) -> tuple[int, int]:
         """(first DOF of ``piece`` in the partition's distributed DOF numbering,
         the partition's DOFs)."""
-        starts = self.dof_starts or self._dof_starts(dofmap)
+        starts = self.dof_starts or self.piece_dofs(dofmap)
         return int(starts[piece]), int(starts[-1])
 
-    def _dof_starts(self, dofmap) -> tuple:
+    def piece_dofs(self, dofmap) -> tuple:
+        """Every piece's first DOF in the distributed DOF numbering, then the
+        partition's DOFs (the whole plan's pieces)."""
         return tuple(np.concatenate([[0], np.cumsum([dofmap.count(pc.held)
                                                      for pc in self.pieces])]).tolist())
 
-    def slice_for(self, piece, near, dofmap) -> "Distribution":
+    def slice_for(self, piece, near, dofmap, dof_starts=None) -> "Distribution":
         """What the rank of ``piece`` (None: a rank without one) needs: its
         piece and the numbering of ``near`` (sorted: the nodes its share of
-        the model touches, its held nodes and their neighbours).  Nodes with differing
-        DOF counts keep the array over every node (their scalar matrix numbers
-        DOFs through every node before its own)."""
+        the model touches, its held nodes and their neighbours).  Nodes with
+        differing DOF counts keep the array over every node (their scalar
+        matrix numbers DOFs through every node before its own).
+        ``dof_starts``: :meth:`piece_dofs`, if made already (every rank's
+        slice has the same)."""
         pieces = [None] * len(self.pieces)
         number = Numbering(np.zeros(0, np.int64), np.zeros(0, np.int64))
         if piece is not None:
@@ -111,7 +115,7 @@ class Distribution:
                 at = self.number[near]
                 number = Numbering(near[at >= 0], at[at >= 0])
         return Distribution(None, tuple(pieces), number, self.n_held, self.external,
-                            self.n_layers, self._dof_starts(dofmap))
+                            self.n_layers, dof_starts or self.piece_dofs(dofmap))
 
 
 def whole(layout: Layout, n_nodes: int) -> Distribution:

@@ -114,13 +114,14 @@ def slices(whole, mdl, graph, size, methods):
     if size == 1:
         yield whole, mdl
         return
+    starts = [dist.piece_dofs(mdl.dofmap) for dist in whole.dists]     # (every rank's)
     for r in range(size):
         dists = []
         for p, dist in enumerate(whole.dists):
             on = whole.assignment.ranks[p]
             k = on.index(r) if r in on else None
             near = graph.reach(dist.pieces[k].held) if k is not None else None
-            dists.append(dist.slice_for(k, near, mdl.dofmap))
+            dists.append(dist.slice_for(k, near, mdl.dofmap, starts[p]))
         mine = Plan(whole.owned_counts, whole.assignment, dists, whole.freqs, whole.problems)
         yield mine, (mdl if r == 0 else share_of(mdl, whole.dists, whole.assignment, r, methods))
 
