@@ -222,7 +222,7 @@ MODEL_NAMES = {"model", "mdl", "arrays", "share", "side"}
 MODEL_ATTRS = {"kind", "dof", "mass", "fixed", "loads", "u0", "v0", "points", "notes", "cells",
                "shells", "lattice", "contact", "heat", "zone", "dofmap", "n_nodes", "n_dofs",
                "material_D", "inertia", "bonds", "overlap_cells", "carried", "bond_geometry",
-               "break_strain"}
+               "break_strain", "gravity"}
 # (file, object, attribute) of the getattr/hasattr calls that may stay: none asks a model
 ALLOWED = {
     ("model/interface.py", "model", None),          # features(): every FEATURES name

@@ -51,6 +51,7 @@ class Model:
     contact: ClassVar[tuple | None] = None
     heat: ClassVar[object] = None
     zone: ClassVar[object] = None
+    gravity: ClassVar[None] = None
 
     @property
     def n_nodes(self) -> int:

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from solver.model import layout as overlap
+from solver.model import initial, layout as overlap
 from solver.model.shell_model import SHELL3
 
 SHOWN = 3                # elements listed per partition
@@ -258,5 +258,6 @@ def lines(scene, mdl) -> list[str]:
     mat = describe_materials(scene)
     if mat:
         out.append(mat)
+    out += initial.describe(mdl)
     out += partition_lines(scene, mdl, overlap.owner_map(mdl.n_nodes, scene.partitions))
     return out

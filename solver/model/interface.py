@@ -80,6 +80,7 @@ class ModelInterface(Protocol):
     contact: tuple | None
     heat: Conduction | None
     zone: Transition | None
+    gravity: np.ndarray | None   # body acceleration [space] on every node's mass, or None
 
     @property
     def n_nodes(self) -> int: ...

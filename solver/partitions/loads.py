@@ -56,6 +56,25 @@ class LoadGroup:
         return w
 
 
+GRAVITY_KEY = -1          # gravity's groups are keys -1, -2, -3 (x, y, z): loads count from 0
+
+
+def _steady(t: float) -> float:
+    return 1.0
+
+
+def gravity(g, mass, layout, starts) -> list[LoadGroup]:
+    """The weight m g of every held node: one constant group per axis with g != 0
+    (its work, -m g . u over the owned nodes, is external work)."""
+    own = np.arange(starts.size) < layout.n_owned
+    out = []
+    for c, gc in enumerate(g):
+        if gc != 0.0:
+            idx = starts + c
+            out.append(LoadGroup(GRAVITY_KEY - c, _steady, idx, mass[idx] * gc, own))
+    return out
+
+
 class Loads:
     """``groups``: the groups of the held loaded DOFs (applied to the residual);
     ``owned``: those with owned DOFs (their work is ``work``, the partition's
@@ -67,10 +86,11 @@ class Loads:
         self.work = 0.0
 
     @classmethod
-    def of(cls, model, layout, starts):
+    def of(cls, model, layout, starts, mass=None):
         """Group the held loaded DOFs by time function: one numpy update per group
         and step (a traction on a face is one group), not a Python loop per DOF.
-        ``starts``: each held node's first local DOF."""
+        ``starts``: each held node's first local DOF; ``mass``: the held DOFs'
+        lumped masses (the weight m g of a model with gravity)."""
         nodes, comps = model.dofmap.node_of([l.dof for l in model.loads])
         local = layout.local(nodes) if nodes.size else nodes
         groups: dict[int, tuple] = {}
@@ -85,7 +105,10 @@ class Loads:
             idx.append(int(starts[loc] + comp))
             scale.append(load.scale)
             own.append(loc < layout.n_owned)
-        return cls(LoadGroup(*g) for g in groups.values())
+        out = [LoadGroup(*g) for g in groups.values()]
+        if model.gravity is not None:
+            out += gravity(model.gravity, mass, layout, starts)
+        return cls(out)
 
     def apply(self, R, t):
         """R += f(t) of every group."""

@@ -145,7 +145,7 @@ class Partition:
                      (self.U, self.V, self.A, work["ut"], work["vt"])]
             self.corrected = tuple(owned)
             self._views += owned
-        self.loads = Loads.of(model, layout, self.starts)
+        self.loads = Loads.of(model, layout, self.starts, self.mass)
         # r = f - K u - beta K v - alpha M v: its terms and work Vecs only when damped
         self.damping = Damping.of(damping, self.mass, comm)
         self.built = []                         # what was built, for the log (subclasses add)

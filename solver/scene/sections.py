@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from solver.scene import registry
+from solver.scene import expression, registry
 from solver.scene.schema import fail, key, shown
 from solver.scene.heat_spec import HeatSpec
 from solver.scene.model_spec import ContinuumModel, NetworkModel, parse_model, parse_node_set
@@ -222,9 +222,32 @@ class Load:
 
 
 @dataclass(frozen=True)
+class InitialMotion:
+    group: str | None = key("physical group whose nodes start so (default: every node of the "
+                            "model, lattice particles and transition-band particles included)",
+                            None)
+    velocity: tuple[float | str, ...] | None = key(
+        "initial velocity [m/s], one entry per axis: a number or an expression of the node's "
+        "position x, y, z [m] (docs/guide/initial.md), e.g. [\"-20 * (x < 0.05)\", 0]", None)
+    displacement: tuple[float | str, ...] | None = key(
+        "initial displacement [m], one entry per axis, as velocity", None)
+
+    def validate(self, path):
+        if self.velocity is None and self.displacement is None:
+            fail(path, "give velocity or displacement (or both)")
+        for name in ("velocity", "displacement"):
+            for i, c in enumerate(getattr(self, name) or ()):
+                if isinstance(c, str):
+                    expression.check(c, f"{path}.{name}[{i}]")
+
+
+@dataclass(frozen=True)
 class Initial:
-    displacement: dict[int, float] = key("node -> initial displacement", {})
-    velocity: dict[int, float] = key("node -> initial velocity", {})
+    displacement: dict[int, float] = key("network models: node -> initial displacement", {})
+    velocity: dict[int, float] = key("network models: node -> initial velocity", {})
+    motion: tuple[InitialMotion, ...] = key(
+        "continuum models: initial velocity and displacement by group or by position, applied "
+        "in order (a later entry overrides an earlier one on the nodes and axes it gives)", ())
 
 
 @dataclass(frozen=True)
@@ -352,6 +375,10 @@ class Scene:
     coupling: Coupling = key("how partitions exchange", Coupling())
     loads: tuple[Load, ...] = key("external forces", ())
     initial: Initial = key("initial state (zero where not given)", Initial())
+    gravity: tuple[float, ...] | None = key(
+        "continuum models: a uniform body acceleration g [m/s^2], one entry per axis (e.g. "
+        "[0, -9.81]): every node of every partition carries m g from t = 0, m its lumped mass "
+        "there (docs/guide/initial.md)", None)
     damping: Damping = key("Rayleigh damping C = alpha M + beta K of every partition (bonds "
                            "included)", Damping())
     probes: tuple[Probe, ...] = key("recorded node histories", ())
@@ -472,8 +499,15 @@ class Scene:
             fail("reference", "the damped modal reference covers free vibration (no loads)")
         if continuum and self.reference == "modal":
             fail("reference", "modal references are for network models")
-        if continuum and self.initial != Initial():
-            fail("initial", "initial states are for network models (continua start at rest)")
+        if continuum and (self.initial.displacement or self.initial.velocity):
+            kind = "displacement" if self.initial.displacement else "velocity"
+            fail(f"initial.{kind}", "node -> value initial states are for network models; a "
+                 "continuum starts moving by initial.motion (by group or by position)")
+        if not continuum and self.initial.motion:
+            fail("initial.motion", "is for continuum models (a network gives initial.velocity "
+                 "and initial.displacement by node)")
+        if self.gravity is not None and not continuum:
+            fail("gravity", "is for continuum models (a network's nodes have no direction)")
         if isinstance(self.reference, BarWaveReference):
             if not continuum:
                 fail("reference.kind", "bar_wave needs a continuum model")

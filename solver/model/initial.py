@@ -1,0 +1,95 @@
+"""A continuum's initial state and body acceleration: scene keys
+``initial.motion`` and ``gravity`` on the built model.
+
+:func:`apply` fills u0 and v0 (by group, or every node, with numbers or
+expressions of position: :mod:`solver.scene.expression`), in the order the
+entries are given, on the translational DOFs (a shell node's rotations start
+at rest), refuses motion on a fixed DOF naming the entry and the node, and
+sets the model's ``gravity``.  The partitions start from u0 and v0 with
+a_0 = M^-1 (f(0) - K u_0) and apply m g on every held node
+(:class:`solver.partitions.loads.Loads`).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from solver.errors import SceneError
+from solver.scene import expression
+
+AXES = "xyz"
+
+
+def apply(arrays, scene, mesh):
+    """``arrays`` with u0, v0 and gravity of ``scene`` (unchanged where it gives none)."""
+    motion, g = scene.initial.motion, scene.gravity
+    dim = arrays.points.shape[1]
+    changes = {}
+    if g is not None:
+        if len(g) != dim:
+            raise SceneError(f"gravity: {list(g)} has {len(g)} entries; this {dim}D model needs "
+                             f"{dim} (one per axis)")
+        if any(g):
+            changes["gravity"] = np.array(g, dtype=float)
+    if motion:
+        changes.update(_motion(arrays, motion, mesh, dim))
+    return dataclasses.replace(arrays, **changes) if changes else arrays
+
+
+def _motion(arrays, motion, mesh, dim) -> dict:
+    dm = arrays.dofmap
+    state = {"velocity": np.zeros(dm.n_dofs), "displacement": np.zeros(dm.n_dofs)}
+    setter = {k: np.full(dm.n_dofs, -1) for k in state}       # the entry that set each DOF
+    every = np.arange(arrays.n_nodes)
+    for i, entry in enumerate(motion):
+        path = f"initial.motion[{i}]"
+        nodes = every if entry.group is None else \
+            np.asarray(mesh.group(entry.group, f"{path}.group").nodes, dtype=np.int64)
+        first = np.asarray(dm.offsets[nodes], dtype=np.int64)
+        for name, values in state.items():
+            given = getattr(entry, name)
+            if given is None:
+                continue
+            if len(given) != dim:
+                raise SceneError(f"{path}.{name}: {list(given)} has {len(given)} entries; this "
+                                 f"{dim}D model needs {dim} (one per axis)")
+            for c, value in enumerate(given):
+                values[first + c] = expression.evaluate(value, arrays.points[nodes],
+                                                        f"{path}.{name}[{c}]")
+                setter[name][first + c] = i
+    for name, values in state.items():
+        bad = np.flatnonzero(arrays.fixed & (values != 0.0))
+        if bad.size:
+            dof = int(bad[0])
+            node, c = (int(x[0]) for x in dm.node_of(np.array([dof])))
+            raise SceneError(
+                f"initial.motion[{setter[name][dof]}].{name}: node {node} at "
+                f"{arrays.points[node].tolist()} is fixed in {AXES[c]} (boundary) but would start "
+                f"with {name} {values[dof]:g} there ({bad.size} such DOFs); give 0 on fixed "
+                "axes or leave those nodes out of the group")
+    return {"v0": state["velocity"], "u0": state["displacement"]}
+
+
+def describe(model) -> list[str]:
+    """Log lines of the model's initial motion and gravity (none when at rest
+    without gravity)."""
+    out = []
+    g = model.gravity
+    if g is not None:
+        weight = float(np.linalg.norm(g)) * float(model.mass.sum())
+        out.append(f"gravity {[float(x) for x in g]} m/s^2 on every node's mass (weight "
+                   f"{weight:.4g} N)")
+    if model.kind != "continuum":
+        return out
+    dm = model.dofmap
+    for name, values, unit in (("moving", model.v0, "m/s"), ("displaced", model.u0, "m")):
+        if not np.any(values):
+            continue
+        starts = np.asarray(dm.offsets[np.arange(model.n_nodes)], dtype=np.int64)
+        dim = model.points.shape[1]
+        vec = values[starts[:, None] + np.arange(dim)]
+        size = np.linalg.norm(vec, axis=1)
+        out.append(f"initial motion: {int(np.count_nonzero(size))} nodes {name} (largest "
+                   f"{size.max():.4g} {unit})")
+    return out
