@@ -15,6 +15,7 @@ from solver.memory import release
 from solver.petscutil import init
 from solver.coupling.schemes import scheme_class
 from solver.partitions import integrators, levels, partitioning
+from solver.partitions.stability import UNCHECKED
 
 
 def _silent(*_):
@@ -34,8 +35,11 @@ class Assembly:
     freqs: dict
     scene: object = None          # the scene built (levels and time.dt made: resolve)
     counts: dict = None           # the whole model's FE cells and particles (model_counts)
+    static: object = None         # analysis static: the StaticSolve standing in for the step
 
     def destroy(self):
+        if self.static is not None:
+            self.static.destroy()
         for part in self.parts:
             part.destroy()
         for exchange in self.scheme.exchanges:
@@ -122,8 +126,13 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
 
     # the whole model on rank 0 only; the partitions stage sends every rank its share
     mdl = model if prebuilt else on_root(comm, _model, scene, store, share=False)
-    say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
-        f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = {n_sys * Dt:.6g} s")
+    if scene.analysis == "static":
+        say(f"[solver] {scene.name}: static analysis on {size} rank(s): K u = f with the loads "
+            f"at t = {scene.time.end:.6g} s")
+    else:
+        say(f"[solver] {scene.name}: {n_part} partition(s) on {size} rank(s); system step "
+            f"{Dt:.4g} s = {R} x {scene.time.dt:.4g} s, {n_sys} system steps to t = "
+            f"{n_sys * Dt:.6g} s")
     for note in mdl.notes if mdl is not None else ():
         say(f"[solver]   mesh {note}")
     if mdl is not None and mdl.zone is not None:
@@ -144,21 +153,25 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
     lines = []
     for part in parts:
         fr, crit = freqs[part.name]
-        lines.append(f"[solver]   {part.describe()}")
-        lines.append(f"[solver]   {part.name}: built {'; '.join(part.built)}; omega_max "
-                     f"{fr.omega_max:.4g} rad/s ({fr.method}), critical step {crit:.4g} s")
+        lines.append(f"[solver]   {part.describe(stepping=fr is not UNCHECKED)}")
+        ring = f"omega_max {fr.omega_max:.4g} rad/s ({fr.method}), critical step {crit:.4g} s" \
+            if fr is not UNCHECKED else "no stability check (analysis static takes no step)"
+        lines.append(f"[solver]   {part.name}: built {'; '.join(part.built)}; {ring}")
     for chunk in comm.gather(lines, root=0) or []:
         for line in chunk:
             say(line)
 
-    if scheme.exchanges:
+    if scene.analysis == "static":
+        pass                         # (the static solve says what it is: solver.driver.static)
+    elif scheme.exchanges:
         say(f"[solver]   {scheme.describe()}; {len(scheme.exchanges)} VecScatter exchange(s) of "
             f"(u, v, a) per system step; external-data treatment: "
             + ", ".join(f"{p.name} {t}" for p, t in zip(scene.partitions, treatments)))
     else:
         say(f"[solver]   {scheme.describe()}")
     not_built = []
-    if not any(integrators.kind(p).needs_ksp for p in scene.partitions):
+    if not any(integrators.kind(p).needs_ksp for p in scene.partitions) and \
+            scene.analysis == "dynamic":
         not_built.append("KSP (all partitions explicit)")
     if not scheme.exchanges and n_part == 1:
         not_built.append("exchange (single partition)")

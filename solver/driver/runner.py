@@ -30,6 +30,7 @@ from solver.petscutil import check_unused
 from solver.driver.stop import Stopper, Interrupted
 from solver.driver.fields import FieldWriter, write_cracks
 from solver.driver.state import group_writer
+from solver.driver.static import StaticSolve, one_sample
 
 
 def _silent(*_):
@@ -77,6 +78,13 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
     handed = Whole(model)            # build takes it: rank 0 may let go of the whole model
     del model
     asm = build(scene, comm, say, store, measure_wait, handed)
+    if scene.analysis == "static":
+        try:
+            asm.static = StaticSolve(scene, asm, say)
+        except BaseException:
+            asm.destroy()
+            raise
+        asm.scheme.step = asm.static.step          # the one system step: the solve
     mdl, parts, scheme = asm.model, asm.parts, asm.scheme
     n_sys, Dt = scene.n_system_steps, scene.system_dt
 
@@ -131,7 +139,8 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     if scene.output and scene.output.fields:
         fields = FieldWriter(scene, mdl, parts, comm, tag=f"_restart{start}" if start else "",
                              heating=heating)
-        fields.write(start * Dt)
+        if asm.static is None:       # (a static run's fields hold the static state alone)
+            fields.write(start * Dt)
     # in the order they see a system step: a guard failure writes no checkpoint
     observers = [o for o in (heating, probes, fields, guard, checkpoint) if o is not None]
     progress = scene.output.progress if scene.output else 10.0
@@ -150,6 +159,8 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     stop.where = "while writing the output"
 
     result = report.result(done, "failed" if failure else "completed", failure or "", loop_wall)
+    if asm.static is not None:
+        result = one_sample(result)
     if fields and rank == 0:
         written = fields.written()
         if result.broken is not None and len(result.broken):
@@ -250,6 +261,13 @@ def summary(result, output_file) -> list[str]:
     a = result.attrs
     parts = ", ".join(f"{n} {p['steps']} x {p['dt']:.3g} s ({p['wall_time']:.3g} s)"
                       for n, p in result.partitions.items())
+    if a.get("analysis") == "static":
+        return [f"[solver] {a['scene']}: {a['status']}, static solve at t = {a['t_end']:.6g} s "
+                f"on {a['ranks']} rank(s); wall {a['wall_time']:.3g} s (set-up "
+                f"{a['setup_wall_time']:.3g} s, solve {a['stepping_wall_time']:.3g} s); peak "
+                f"memory per rank {a['peak_rss_mb_per_rank'].max():.0f} MB",
+                f"[solver]   output: {output_file}",
+                *(f"[solver]   fields: {name}" for name in a.get("field_files", ()))]
     lines = [f"[solver] {a['scene']}: {a['status']}, {a['n_system_steps']} system steps to "
              f"t = {a['t_end']:.6g} s on {a['ranks']} rank(s); wall {a['wall_time']:.3g} s "
              f"(set-up {a['setup_wall_time']:.3g} s, stepping {a['stepping_wall_time']:.3g} s, "

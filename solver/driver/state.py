@@ -53,6 +53,9 @@ def _plain(obj):
     return obj if isinstance(obj, (int, str, bool, type(None))) else repr(obj)
 
 
+NEWER_KEYS = (("analysis", "dynamic"), ("gravity", None))     # (key, its unset value)
+
+
 def fingerprint(scene, ranks: bool = False) -> str:
     """Hash of everything that determines the trajectory (not time.end, not output,
     not how the ranks were balanced or how many a partition asked for:
@@ -63,6 +66,12 @@ def fingerprint(scene, ranks: bool = False) -> str:
     data = _plain(scene)
     for name in ("output", "balance", "balance_steps"):
         data.pop(name, None)
+    # keys added since 2026-12-03 count only when set: a scene without them hashes as before
+    for name, unset in NEWER_KEYS:
+        if data.get(name) == unset:
+            data.pop(name)
+    if data.get("initial", {}).get("motion") == []:
+        data["initial"].pop("motion")
     for part in data.get("partitions") or ():
         if isinstance(part, dict) and "ranks" in part and not ranks:
             part["ranks"] = None

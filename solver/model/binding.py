@@ -58,6 +58,8 @@ def bind(scene, store=None):
     reuses what binding read), or None to read afresh."""
     store = store if store is not None else model_data.ModelData()
     data = store.read(scene.model)
+    if scene.analysis == "static":
+        scene = _static(scene)
     if scene.partitions == AUTO:
         scene = dataclasses.replace(scene, partitions=(_everything(scene, data),))
     continuum = scene.model.kind == "continuum"
@@ -217,6 +219,19 @@ def _everything(scene, data):
         dict(nodes=NodeSet(np.arange(model_data.n_nodes(data))))
     return Partition(name="auto", method="fem", integrator="levels", ratio=1, beta=0.0,
                      gamma=0.5, **where)
+
+
+def _static(scene):
+    """``analysis: static``: one explicit fem partition (the given one's nodes, or
+    the body) and one system step, to time.end: the static solve stands in for
+    it (:mod:`solver.driver.static`)."""
+    given = scene.partitions[0] if scene.partitions else None
+    where = dict(group=scene.model.body) if given is None else \
+        dict(group=given.group, nodes=given.nodes)
+    part = Partition(name=given.name if given else "static", method="fem",
+                     integrator="explicit", ratio=1, **where)
+    return dataclasses.replace(scene, partitions=(part,),
+                               time=dataclasses.replace(scene.time, dt=scene.time.end))
 
 
 def _owned_nodes(scene, data, n, zone=None) -> list[NodeSet]:

@@ -259,5 +259,7 @@ def lines(scene, mdl) -> list[str]:
     if mat:
         out.append(mat)
     out += initial.describe(mdl)
+    if scene.analysis == "static":
+        return out                   # (no step to estimate)
     out += partition_lines(scene, mdl, overlap.owner_map(mdl.n_nodes, scene.partitions))
     return out

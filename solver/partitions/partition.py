@@ -188,12 +188,15 @@ class Partition:
         piece where the rank has its slice of the plan)."""
         return self.dist.held()
 
-    def describe(self) -> str:
+    def describe(self, stepping: bool = True) -> str:
+        """The log's line of this piece; ``stepping`` False: its nodes alone (a
+        static analysis takes no step)."""
         lay = self.layout
         ext = " + ".join(str(l.size) for l in lay.layers) or "0"
         piece = f" piece {lay.piece + 1}/{lay.pieces}" if lay.pieces > 1 else ""
-        return (f"{self.name}{piece}: {self.method}, {self.integrator.describe()}; step {self.dt:.3e} s "
-                f"x {self.n_sub} per system step; nodes: {lay.n_owned} owned (boundary "
+        how = (f"{self.method}, {self.integrator.describe()}; step {self.dt:.3e} s x "
+               f"{self.n_sub} per system step; " if stepping else f"{self.method}; ")
+        return (f"{self.name}{piece}: {how}nodes: {lay.n_owned} owned (boundary "
                 f"{_ids(lay.boundary)}, interior {lay.interior.size}), external {ext} in "
                 f"{len(lay.layers)} layer(s) {_ids(lay.external)}")
 

@@ -204,7 +204,10 @@ def build_partitions(scene, mdl, comm, treatments, say, assignment=None) -> Part
 
 
 def check_stability(scene, mdl, layouts, ids):
-    """({name: (Frequency, critical step)}, problems) of partitions ``ids``; numpy only."""
+    """({name: (Frequency, critical step)}, problems) of partitions ``ids``; numpy only.
+    A static analysis takes no step: nothing is checked (stability.UNCHECKED)."""
+    if scene.analysis == "static":
+        return {scene.partitions[p].name: (stability.UNCHECKED, float("inf")) for p in ids}, []
     freqs, problems = {}, []
     for p in ids:
         fr, crit, problem = stability.check(scene, scene.partitions[p], mdl, layouts[p].held,

@@ -63,6 +63,10 @@ class Frequency:
         return omega_h / self.omega_max if self.omega_max > 0 else float("inf")
 
 
+# a partition of a static analysis (which takes no step): no frequency is estimated
+UNCHECKED = Frequency(0.0, "not estimated: analysis static takes no step")
+
+
 def seconds(*values: float, digits: int = 4) -> list[str]:
     """``values`` [s] with ``digits`` significant digits, more (up to 10) until
     values that differ print differently: a step and its critical step never

@@ -69,11 +69,11 @@ class Time:
                      "so 0.1 with steps of 1e-3 is 100); the run ends exactly there, and any "
                      "other end is refused, naming the two nearest whole-step ends",
                      positive=True)
-    dt: float | Literal["auto"] = key(
+    dt: float | Literal["auto"] | None = key(
         "base step [s]; a partition steps ratio*dt.  auto (with partitions: auto): safety x "
         "the critical step of the finest level, lowered so that end is a whole number of "
-        "system steps", parse=lambda value, path: parse_step(value, path),
-        choices_doc="float | auto")
+        "system steps.  Required, except for analysis: static (which takes no step)", None,
+        parse=lambda value, path: parse_step(value, path), choices_doc="float | auto")
     safety: float = key("partitions: auto: a level's step is at most safety x the bound of "
                         "its elements' stable steps; time.dt: auto takes safety x the finest "
                         "level's critical step", 0.9, positive=True)
@@ -361,7 +361,11 @@ class Scene:
         variants=(NetworkModel, ContinuumModel))
     partitions: tuple[Partition, ...] | Literal["auto"] = key(
         "partitions; each node is owned by exactly one.  auto: levels by element step "
-        "(docs/guide/levels.md)")
+        "(docs/guide/levels.md).  analysis: static needs none, or one fem partition", ())
+    analysis: Literal["dynamic", "static"] = key(
+        "dynamic: step in time from the initial state; static (continuum models): solve K u = "
+        "f once, the loads at their value at time.end (KSP prefix static_; "
+        "docs/guide/static.md)", "dynamic")
     balance: Literal["estimated", "measured"] = key(
         "how the ranks are shared among the partitions (docs/guide/ranks.md): by estimated "
         "cost (owned nonzeros x steps per system step) or by measured cost (each partition's "
@@ -421,6 +425,12 @@ class Scene:
         network are checked when the scene is bound (:mod:`solver.model.binding`)."""
         continuum = self.model.kind == "continuum"
         check_label(self.name, "name", "scene name")
+        if self.analysis == "static":
+            self._check_static(continuum)
+            self._check_rest(continuum)
+            return
+        if self.time.dt is None:
+            fail("time.dt", "required: the base step [s] (or auto with partitions: auto)")
         if self.partitions == AUTO or self.time.dt == AUTO:
             self._check_auto(continuum)
             if self.partitions == AUTO:
@@ -445,6 +455,35 @@ class Scene:
                 fail(f"partitions[{p}].ratio", f"{part.ratio} does not divide the largest ratio {big}")
         self._check_end()
         self._check_rest(continuum)
+
+    def _check_static(self, continuum):
+        """``analysis: static``: one solve of the whole model's K u = f; what a
+        dynamic run would step and exchange has no place in it."""
+        if not continuum:
+            fail("analysis", "static is for continuum models")
+        if self.partitions == AUTO:
+            fail("partitions", "auto levels a dynamic run; analysis static solves the whole "
+                 "model at once: give one fem partition or none")
+        if len(self.partitions) > 1:
+            fail("partitions", f"analysis static solves the whole model at once: give one fem "
+                 f"partition or none ({len(self.partitions)} given)")
+        if self.partitions and self.partitions[0].method != "fem":
+            fail("partitions[0].method", "analysis static solves the FE model: fem")
+        for name, bad, why in (
+                ("model.lattice", self.model.lattice is not None,
+                 "a static solve takes the FE cells alone (bonds, contact and breakage are "
+                 "dynamic)"),
+                ("heat", self.heat is not None, "a static solve carries no temperature"),
+                ("initial.motion", bool(self.initial.motion),
+                 "a static solve starts from nothing and has no velocity"),
+                ("reference", self.reference != "none", "a static solve has no reference run"),
+                ("output.checkpoint", bool(self.output and self.output.checkpoint),
+                 "a static solve has nothing to restart")):
+            if bad:
+                fail(name, f"not with analysis static: {why}")
+        if self.time.dt == AUTO:
+            fail("time.dt", "auto makes levels for a dynamic run; analysis static takes no "
+                 "step (leave time.dt out)")
 
     def _check_auto(self, continuum):
         """``partitions: auto`` and ``time.dt: auto``: what they need (the levels
