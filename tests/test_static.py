@@ -136,3 +136,84 @@ def test_static_is_for_continua_and_dynamics_needs_a_step(tmp_path):
     raw["time"] = {"end": 1e-5}
     proc = run_cli([write_scene(tmp_path / "dyn.yaml", raw)])
     assert proc.returncode == 2 and "time.dt: required: the base step" in proc.stderr, proc.stderr
+
+
+def preloaded_bar(tmp_path, split=False):
+    """The hanging strip as a dynamic run from its preload (or tests/test_continuum.py's
+    split bar, fem partitions west (ratio 2) and east, hanging from its right end)."""
+    raw = hanging(1000.0)
+    del raw["analysis"]
+    raw.update(preload="static", time={"end": 1.0e-5, "dt": 1.0e-8},
+               partitions=[{"name": "fem", "method": "fem", "group": "solid",
+                            "integrator": "explicit", "ratio": 1}])
+    if split:
+        raw["model"]["mesh"] = raw["model"]["mesh"].replace("wave_bar.geo", "bar_split.geo")
+        raw["partitions"] = [
+            {"name": "west", "method": "fem", "group": "west", "integrator": "explicit", "ratio": 2},
+            {"name": "east", "method": "fem", "group": "east", "integrator": "explicit", "ratio": 1}]
+        raw["probes"] = [{"name": "tip", "at": [0.0, 0.0008]}, {"name": "mid", "at": [0.016, 0.0008]}]
+    return raw
+
+
+def test_a_preloaded_run_starts_and_stays_in_equilibrium(tmp_path):
+    """preload: static starts the dynamic run from the static state under
+    gravity: the strip's tip stays at the static solve's value (to 1e-12) at
+    rest, where it would otherwise swing to twice its sag."""
+    raw = preloaded_bar(tmp_path)
+    res = run_scene(raw, tmp_path)
+    static = run_scene(hanging(1000.0), tmp_path).probes["tip"]["displacement"][0]
+    u, v = res.probes["tip"]["displacement"], res.probes["tip"]["velocity"]
+    assert abs(u[0] / static - 1) < 1e-12
+    assert np.abs(u / static - 1).max() < 1e-10
+    assert np.abs(v).max() < 1e-10 * abs(static) / 1e-5        # (against a sag over the run)
+    en = res.energy
+    assert abs(en["strain"][0] / 4.36592e-07 - 1) < 1e-5         # the static strain energy
+    assert en["kinetic"].max() < 1e-12 * en["strain"][0]
+
+
+def test_a_preloaded_split_bar_on_one_and_two_ranks(tmp_path):
+    """Two fem partitions (ratios 2 and 1) coupled by the overlap exchange
+    start from the whole model's static state and keep it, on 1 and 2 ranks."""
+    raw = preloaded_bar(tmp_path, split=True)
+    out = []
+    for n in (None, 2):
+        raw["output"] = {"file": str(tmp_path / f"p{n}.h5")}
+        proc = run_cli([write_scene(tmp_path / f"p{n}.yaml", raw)], n=n, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        assert "preload: the run starts from the static state at t = 0" in proc.stdout
+        with h5py.File(tmp_path / f"p{n}.h5") as f:
+            out.append({p: f[f"probes/{p}/displacement"][()] for p in ("tip", "mid")})
+    static = -RHO * 1000.0 * 0.032 ** 2 / (2 * E)                # 1D, L = 32 mm
+    for run in out:
+        tip = run["tip"]
+        assert abs(tip[0] / static - 1) < 0.01, tip[0]
+        assert np.abs(tip / tip[0] - 1).max() < 1e-10
+    for p in ("tip", "mid"):
+        assert np.abs(out[0][p] - out[1][p]).max() <= 1e-8 * np.abs(out[0][p]).max(), p
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda r: r.update(analysis="static"),
+     "preload: is for dynamic runs (analysis static is the static state itself)"),
+    (lambda r: r.update(initial={"motion": [{"displacement": [1e-6, 0]}]}),
+     "initial.motion[0].displacement: not with preload static"),
+    (lambda r: r["model"].update(fixed=[]),
+     "preload: static: the model is free to move (3 rigid-body mode(s)"),
+])
+def test_preload_refusals(edit, message, tmp_path):
+    raw = preloaded_bar(tmp_path)
+    edit(raw)
+    raw["output"] = {"file": str(tmp_path / "bad.h5")}
+    proc = run_cli([write_scene(tmp_path / "bad.yaml", raw)])
+    assert proc.returncode == 2, proc.stderr
+    assert message in proc.stderr, proc.stderr
+    assert not (tmp_path / "bad.h5").exists()
+
+
+def test_preload_needs_a_lattice_free_continuum(tmp_path):
+    for name, message in (("bar3d", "preload: static solves the FE model: a lattice's bonds"),
+                          ("six_dof", "preload: static is for continuum models")):
+        raw = raw_scene(name)
+        raw["preload"] = "static"
+        proc = run_cli([write_scene(tmp_path / "s.yaml", raw)])
+        assert proc.returncode == 2 and message in proc.stderr, proc.stderr

@@ -78,6 +78,11 @@ def _model(scene, store):
     return mdl
 
 
+def whole_model(scene, comm, store=None):
+    """Rank 0's whole model of ``scene`` (None on the other ranks)."""
+    return on_root(comm, _model, scene, store, share=False)
+
+
 def resolve(scene, comm, store=None, say=_silent):
     """(the scene with its levels, time.dt and mass scaling made, rank 0's
     whole model or None): ``partitions: auto``, ``time.dt: auto`` and
@@ -125,7 +130,7 @@ def build(scene, comm, say=_silent, store=None, measure_wait: bool = False,
     Dt = scene.system_dt
 
     # the whole model on rank 0 only; the partitions stage sends every rank its share
-    mdl = model if prebuilt else on_root(comm, _model, scene, store, share=False)
+    mdl = model if prebuilt else whole_model(scene, comm, store)
     if scene.analysis == "static":
         say(f"[solver] {scene.name}: static analysis on {size} rank(s): K u = f with the loads "
             f"at t = {scene.time.end:.6g} s")

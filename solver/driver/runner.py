@@ -17,7 +17,7 @@ import numpy as np
 
 from solver.model import layout as overlap
 from solver.partitions.partitioning import Whole
-from solver.driver.build import build, resolve
+from solver.driver.build import build, resolve, whole_model
 from solver.driver.comparison import add_reference, check_reference
 from solver.errors import RunFailed, SceneError, StabilityError, describe
 from solver.driver.checkpoint import Checkpoint
@@ -30,7 +30,7 @@ from solver.petscutil import check_unused
 from solver.driver.stop import Stopper, Interrupted
 from solver.driver.fields import FieldWriter, write_cracks
 from solver.driver.state import group_writer
-from solver.driver.static import StaticSolve, one_sample
+from solver.driver.static import StaticSolve, one_sample, preloaded
 
 
 def _silent(*_):
@@ -75,6 +75,10 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
         problem = comm.bcast(problem)
         if problem:
             raise problem
+    if scene.preload == "static" and not saved:       # (a restart goes on from its checkpoint)
+        if not comm.allreduce(model is not None):
+            model = whole_model(scene, comm, store)
+        model = preloaded(scene, comm, say, model)
     handed = Whole(model)            # build takes it: rank 0 may let go of the whole model
     del model
     asm = build(scene, comm, say, store, measure_wait, handed)

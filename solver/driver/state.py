@@ -53,7 +53,7 @@ def _plain(obj):
     return obj if isinstance(obj, (int, str, bool, type(None))) else repr(obj)
 
 
-NEWER_KEYS = (("analysis", "dynamic"), ("gravity", None))     # (key, its unset value)
+NEWER_KEYS = (("analysis", "dynamic"), ("gravity", None), ("preload", "none"))  # (key, unset)
 
 
 def fingerprint(scene, ranks: bool = False) -> str:

@@ -1,4 +1,5 @@
-"""``analysis: static``: K u = f once, the loads (and gravity) at their value at time.end.
+"""``analysis: static``: K u = f once, the loads (and gravity) at their value at time.end;
+``preload: static``: the same at t = 0, the dynamic run's initial displacement.
 
 The scene is bound as one explicit fem partition over the body stepping once
 to time.end (:func:`solver.model.binding._static`); its build takes no
@@ -17,13 +18,18 @@ stability check, and :class:`StaticSolve` stands in for the scheme's step:
    1/2 f . u (the loads applied slowly from zero: it equals the strain energy).
 
 The run then records one sample at time.end (the runner drops the t = 0 one).
+:func:`preloaded` solves the whole model so before a dynamic run and gives
+rank 0's model the static state as u0.
 """
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from solver.errors import RunFailed, SceneError
 from solver.petscutil import init, vec_on
+from solver.scene import Coupling, Damping, Initial, Partition
 
 PREFIX = "static_"
 NULL = 1e-9          # a mode is free when the fixed DOFs hold it below this x the strongest
@@ -98,13 +104,15 @@ class StaticSolve:
     """The static solve of the one partition of a static scene (its ``step``
     replaces the scheme's)."""
 
-    def __init__(self, scene, asm, say):
+    def __init__(self, scene, asm, say, t: float | None = None, key: str = "analysis"):
+        """``t``: the loads' time (default time.end); ``key``: the scene key
+        a refusal names (analysis, or preload)."""
         (part,) = asm.parts
-        self.part, self.t_end, self.say = part, scene.time.end, say
+        self.part, self.t_end, self.say = part, scene.time.end if t is None else t, say
         free = free_modes(part, asm.model.points, part.comm)
         if free:
             raise SceneError(
-                f"analysis: static: the model is free to move ({len(free)} rigid-body "
+                f"{key}: static: the model is free to move ({len(free)} rigid-body "
                 f"mode(s) no fixed DOF holds: {'; '.join(free)}); fix them with model.fixed or "
                 "model.constraints")
         P = init()
@@ -192,3 +200,44 @@ def one_sample(result):
         result.energy = drop(result.energy)
     result.attrs["analysis"] = "static"
     return result
+
+
+def preload_scene(scene):
+    """The static scene of ``preload: static``: the whole model as one fem
+    partition (every node its partitions own), the loads at t = 0."""
+    from solver.driver.monolithic import all_nodes  # lazy: (monolithic builds runs of its own)
+    whole = Partition(name="preload", method="fem", nodes=all_nodes(scene),
+                      integrator="explicit", ratio=1)
+    return dataclasses.replace(scene, name=f"{scene.name}_preload", analysis="static",
+                               preload="none", partitions=(whole,), coupling=Coupling(),
+                               time=dataclasses.replace(scene.time, dt=scene.time.end),
+                               reference="none", output=None, initial=Initial(),
+                               damping=Damping(), balance="estimated")
+
+
+def preloaded(scene, comm, say, model):
+    """Rank 0's model (``model``, built once: None on the other ranks) with u0
+    the static state under the loads at t = 0 and gravity, solved over the
+    ranks as one fem partition; the velocities of initial.motion stay."""
+    from solver.driver.build import build  # lazy: build imports this module's users
+    quiet = lambda *_: None                                  # noqa: E731 (the run's own log says it)
+    say(f"[solver] {scene.name}: preload: the static state under the loads at t = 0 and "
+        "gravity, the whole model as one fem partition")
+    pscene = preload_scene(scene)
+    asm = build(pscene, comm, quiet, model=model)
+    try:
+        solve = asm.static = StaticSolve(pscene, asm, say, t=0.0, key="preload")
+        solve.step(0.0)
+        part = asm.parts[0]
+        mine = (part.dofmap.dofs(part.layout.owned), part.U[:part.n_own].copy())
+    finally:
+        asm.destroy()
+    chunks = comm.gather(mine, root=0) if comm.size > 1 else [mine]
+    if comm.rank != 0:
+        return model
+    u0 = np.zeros(model.n_dofs)
+    for idx, values in chunks:
+        u0[idx] = values
+    say(f"[solver]   preload: the run starts from the static state at t = 0 (largest "
+        f"displacement {np.abs(u0).max():.4g} m), at rest")
+    return dataclasses.replace(model, u0=u0)

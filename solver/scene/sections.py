@@ -362,6 +362,10 @@ class Scene:
     partitions: tuple[Partition, ...] | Literal["auto"] = key(
         "partitions; each node is owned by exactly one.  auto: levels by element step "
         "(docs/guide/levels.md).  analysis: static needs none, or one fem partition", ())
+    preload: Literal["none", "static"] = key(
+        "static (continuum models without a lattice): start the dynamic run from the static "
+        "state K u0 = f(0) under the loads at t = 0 and gravity, at rest: no settling needed "
+        "(docs/guide/static.md)", "none")
     analysis: Literal["dynamic", "static"] = key(
         "dynamic: step in time from the initial state; static (continuum models): solve K u = "
         "f once, the loads at their value at time.end (KSP prefix static_; "
@@ -426,11 +430,15 @@ class Scene:
         continuum = self.model.kind == "continuum"
         check_label(self.name, "name", "scene name")
         if self.analysis == "static":
+            if self.preload != "none":
+                fail("preload", "is for dynamic runs (analysis static is the static state itself)")
             self._check_static(continuum)
             self._check_rest(continuum)
             return
         if self.time.dt is None:
             fail("time.dt", "required: the base step [s] (or auto with partitions: auto)")
+        if self.preload == "static":
+            self._check_preload(continuum)
         if self.partitions == AUTO or self.time.dt == AUTO:
             self._check_auto(continuum)
             if self.partitions == AUTO:
@@ -484,6 +492,18 @@ class Scene:
         if self.time.dt == AUTO:
             fail("time.dt", "auto makes levels for a dynamic run; analysis static takes no "
                  "step (leave time.dt out)")
+
+    def _check_preload(self, continuum):
+        """``preload: static``: the whole FE model's static state starts the run."""
+        if not continuum:
+            fail("preload", "static is for continuum models")
+        if self.model.lattice is not None:
+            fail("preload", "static solves the FE model: a lattice's bonds would start out of "
+                 "balance with it (settle a lattice under damping instead)")
+        for i, entry in enumerate(self.initial.motion):
+            if entry.displacement is not None:
+                fail(f"initial.motion[{i}].displacement", "not with preload static (the "
+                     "preload sets every displacement)")
 
     def _check_auto(self, continuum):
         """``partitions: auto`` and ``time.dt: auto``: what they need (the levels
