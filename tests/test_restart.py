@@ -173,14 +173,16 @@ def test_the_fingerprint_leaves_out_the_ranks_given():
 
 
 def test_keys_added_later_leave_older_fingerprints_alone():
-    """gravity, initial.motion and analysis (added 2026-12-03) enter the
-    fingerprint only when set: configs/wave_bar_fem.yaml hashes as the version
-    before them did (its checkpoints still restart), and setting one changes it."""
+    """gravity, initial.motion, analysis, preload and model.integration (added
+    2026-12-03) enter the fingerprint only when set: configs/wave_bar_fem.yaml
+    hashes as the version before them did (its checkpoints still restart), and
+    setting one changes it."""
     from solver.driver.state import fingerprint
     from solver.model import binding
     plain = binding.load("configs/wave_bar_fem.yaml")
     assert fingerprint(plain) == BEFORE["wave_bar_fem"]   # commit 38515b2, from the checkout root
-    for change in (["gravity=[0, -9.81]"], ["initial.motion=[{velocity: [1, 0]}]"]):
+    for change in (["gravity=[0, -9.81]"], ["initial.motion=[{velocity: [1, 0]}]"],
+                   ["model.integration=selective"], ["preload=static"]):
         assert fingerprint(binding.load("configs/wave_bar_fem.yaml", change)) != fingerprint(plain)
 
 

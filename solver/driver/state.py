@@ -72,6 +72,8 @@ def fingerprint(scene, ranks: bool = False) -> str:
             data.pop(name)
     if data.get("initial", {}).get("motion") == []:
         data["initial"].pop("motion")
+    if data.get("model", {}).get("integration") == "full":
+        data["model"].pop("integration")
     for part in data.get("partitions") or ():
         if isinstance(part, dict) and "ranks" in part and not ranks:
             part["ranks"] = None

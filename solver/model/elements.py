@@ -209,6 +209,7 @@ class Elastic:
     rho: float
     kind: str = "solid"
     thickness: float = 1.0
+    integration: str = "full"     # or "selective": the lambda term at the cell centre (stiffness)
 
     def D(self) -> np.ndarray:
         E, nu = self.E, self.nu
@@ -238,10 +239,11 @@ class Elastic:
         return self.thickness if self.kind == "plane_stress" else 1.0
 
 
-def elastic(material) -> Elastic:
-    """The law of a scene's ``model.material`` (thickness 1 where it gives none)."""
+def elastic(material, integration: str = "full") -> Elastic:
+    """The law of a scene's ``model.material`` (thickness 1 where it gives none),
+    its cells integrated as ``model.integration`` says."""
     return Elastic(material.E, material.nu, material.rho, material.kind,
-                   material.thickness if material.thickness is not None else 1.0)
+                   material.thickness if material.thickness is not None else 1.0, integration)
 
 
 class BadElement(ValueError):
@@ -344,12 +346,18 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
 
     For an isotropic material (every Elastic is) in Lame form,
     K_ab,ij = sum_q w detJ (lam N_a,i N_b,j + mu N_a,j N_b,i + mu delta_ij N_a,k N_b,k),
-    which is B^T D B without forming B: one batched (n_q) product per element."""
+    which is B^T D B without forming B: one batched (n_q) product per element.
+    ``material.integration`` selective: the lambda (volumetric) term is
+    integrated at the cell centre, N_a,i N_b,j there times the cell's measure
+    (Hughes 1980, "Generalization of selective integration procedures to
+    anisotropic and nonlinear media", Int. J. Numer. Meth. Eng. 15: B-bar for
+    an isotropic law): no volumetric locking."""
     n_el, k = X.shape[0], family.n_nodes
     d = family.dim
     lam, mu = material.lame()
     scale = material.measure()
     K = np.empty((n_el, k * d, k * d))
+    selective = material.integration == "selective" and len(family.weights) > 1
     for s in range(0, n_el, CHUNK):
         try:
             _, dNdx, wdet = quadrature(family, X[s:s + CHUNK])
@@ -359,11 +367,22 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
         g = dNdx.reshape(e, -1, k * d)                               # [e, q, (a, i)]
         T = np.matmul(g.transpose(0, 2, 1), g * (scale * wdet)[:, :, None])   # [e, (a,i), (b,j)]
         T = T.reshape(e, k, d, k, d)
-        Ke = lam * T + mu * T.transpose(0, 1, 4, 3, 2)               # lam N_a,i N_b,j + mu N_a,j N_b,i
+        Ke = lam * (T if not selective else _centre_term(family, X[s:s + CHUNK], wdet, scale)) \
+            + mu * T.transpose(0, 1, 4, 3, 2)                        # lam N_a,i N_b,j + mu N_a,j N_b,i
         tr = np.einsum("eakbk->eab", T)                              # grad N_a . grad N_b
         Ke += mu * tr[:, :, None, :, None] * np.eye(d)[None, None, :, None, :]
         K[s:s + CHUNK] = Ke.reshape(e, k * d, k * d)
     return K
+
+
+def _centre_term(family: Family, X: np.ndarray, wdet: np.ndarray, scale: float) -> np.ndarray:
+    """N_a,i N_b,j at the cell centre times the cell's measure [e, a, i, b, j]."""
+    N, dN = family.shape(np.array([family.centre]))
+    J = jacobian(dN, X)                                              # [e, 1, i, j]
+    g = np.matmul(dN[None], np.linalg.inv(J).transpose(0, 1, 3, 2))[:, 0]   # [e, a, i]
+    e, k, d = g.shape
+    measure = scale * wdet.sum(axis=1)                               # the cell's area or volume
+    return np.einsum("e,eai,ebj->eaibj", measure, g, g)
 
 
 def lumped_mass(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:

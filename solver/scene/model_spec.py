@@ -263,6 +263,11 @@ class ContinuumModel:
     mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the scene file")
     material: Material = key("linear elastic material")
     body: str = key("physical group of the body's cells", "solid")
+    integration: Literal["full", "selective"] = key(
+        "quad4 and hex8 cells: full (2x2 / 2x2x2 Gauss points), or selective: the volumetric "
+        "lambda term at the cell centre, the shear terms full (Hughes' selective reduced "
+        "integration, B-bar for isotropic materials): no volumetric locking as nu -> 0.5 "
+        "(tri3 and tet4 take one point either way)", "full")
     fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components); a "
                                  "partition must keep a free DOF (one whose every DOF is held "
                                  "has nothing to step and is refused)", ())
