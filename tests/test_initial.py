@@ -65,6 +65,16 @@ def test_an_initial_displacement_holds_its_strain_energy(tmp_path):
     assert abs(res.probes["ahead"]["displacement"][0] / (eps * 0.2) - 1) < 1e-12
 
 
+def test_a_mode_shape_that_vanishes_at_the_support_is_taken(tmp_path):
+    """sin(pi x / L) is 6e-17, not 0, at the fixed end x = L: round-off on a
+    fixed axis is zeroed, not refused (motion there is)."""
+    raw = free_bar(2.0e-7, initial={"motion": [{"velocity": [0, "0.1 * sin(pi * x / 0.32)"]}]})
+    raw["model"]["fixed"] = ["right"]
+    res = run_scene(raw, tmp_path)
+    exact = 0.5 * RHO * THICK * H * L * 0.1 ** 2 * 0.5     # 1/2 m v^2, the mean of sin^2 1/2
+    assert abs(res.energy["kinetic"][0] / exact - 1) < 1e-9
+
+
 def test_motion_by_group_and_in_order(tmp_path):
     """A later entry overrides an earlier one on its group: the whole bar at w,
     then its left edge (5 nodes, mass rho t H dx / 2) at v."""

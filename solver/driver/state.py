@@ -53,7 +53,9 @@ def _plain(obj):
     return obj if isinstance(obj, (int, str, bool, type(None))) else repr(obj)
 
 
-NEWER_KEYS = (("analysis", "dynamic"), ("gravity", None), ("preload", "none"))  # (key, unset)
+# keys added since 2026-12-03, by path, with their unset value: they count only when set
+NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "none"),
+              (("initial", "motion"), []), (("model", "integration"), "full"))
 
 
 def fingerprint(scene, ranks: bool = False) -> str:
@@ -66,14 +68,12 @@ def fingerprint(scene, ranks: bool = False) -> str:
     data = _plain(scene)
     for name in ("output", "balance", "balance_steps"):
         data.pop(name, None)
-    # keys added since 2026-12-03 count only when set: a scene without them hashes as before
-    for name, unset in NEWER_KEYS:
-        if data.get(name) == unset:
-            data.pop(name)
-    if data.get("initial", {}).get("motion") == []:
-        data["initial"].pop("motion")
-    if data.get("model", {}).get("integration") == "full":
-        data["model"].pop("integration")
+    for path, unset in NEWER_KEYS:            # a scene without them hashes as before
+        section = data
+        for name in path[:-1]:
+            section = section.get(name) or {}
+        if section.get(path[-1], unset) == unset:
+            section.pop(path[-1], None)
     for part in data.get("partitions") or ():
         if isinstance(part, dict) and "ranks" in part and not ranks:
             part["ranks"] = None

@@ -64,12 +64,11 @@ def modes(points: np.ndarray, dofs: int) -> tuple[np.ndarray, list[str]]:
     return np.stack(cols, axis=-1), names
 
 
-def free_modes(part, points, comm) -> list[str]:
+def free_modes(part, points) -> list[str]:
     """The rigid-body motions no fixed DOF of partition ``part`` holds, in
     words (collective over its ranks)."""
     lay = part.layout
     owned = lay.owned
-    counts = part.dofmap.counts[owned]
     starts = part.starts[:owned.size]
     fixed = np.flatnonzero(part.fixed_dofs[:part.n_own])
     node = np.searchsorted(starts, fixed, side="right") - 1
@@ -77,9 +76,7 @@ def free_modes(part, points, comm) -> list[str]:
     d = points.shape[1]
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     size = float(np.ptp(points, axis=0).max()) or 1.0
-    largest = int(part.comm.allreduce(int(counts.max()) if counts.size else 0,
-                                      op=_max()))
-    shape, names = modes((points[owned[node]] - centre) / size, max(largest, d))
+    shape, names = modes((points[owned[node]] - centre) / size, max(part.dofmap.largest, d))
     rows = shape[np.arange(fixed.size), comp] if fixed.size else np.zeros((0, len(names)))
     gram = part.comm.allreduce(rows.T @ rows)
     vals, vecs = np.linalg.eigh(gram)
@@ -95,11 +92,6 @@ def free_modes(part, points, comm) -> list[str]:
     return out
 
 
-def _max():
-    from mpi4py import MPI  # lazy: importing mpi4py starts MPI; the entry point decides when
-    return MPI.MAX
-
-
 class StaticSolve:
     """The static solve of the one partition of a static scene (its ``step``
     replaces the scheme's)."""
@@ -109,7 +101,7 @@ class StaticSolve:
         a refusal names (analysis, or preload)."""
         (part,) = asm.parts
         self.part, self.t_end, self.say = part, scene.time.end if t is None else t, say
-        free = free_modes(part, asm.model.points, part.comm)
+        free = free_modes(part, asm.model.points)
         if free:
             raise SceneError(
                 f"{key}: static: the model is free to move ({len(free)} rigid-body "

@@ -314,9 +314,13 @@ def quadrature(family: Family, X: np.ndarray, gradients: bool = True):
         raise BadElement(int(e), float(detJ[e, q]))
     if not gradients:
         return N, None, detJ * family.weights
-    # dN/dx_i = (J^-1)_ij dN/dxi_j: [q, a, j] @ (J^-1)^T [e, q, j, i]
-    dNdx = np.matmul(dN[None], np.linalg.inv(J).transpose(0, 1, 3, 2))
-    return N, dNdx, detJ * family.weights
+    return N, physical(dN, J), detJ * family.weights
+
+
+def physical(dN: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """dN/dx [e, q, a, i] from dN/dxi [q, a, j] and J [e, q, i, j]:
+    dN/dx_i = (J^-1)_ij dN/dxi_j, [q, a, j] @ (J^-1)^T [e, q, j, i]."""
+    return np.matmul(dN[None], np.linalg.inv(J).transpose(0, 1, 3, 2))
 
 
 def strain_matrix(dNdx: np.ndarray) -> np.ndarray:
@@ -377,10 +381,8 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
 
 def _centre_term(family: Family, X: np.ndarray, wdet: np.ndarray, scale: float) -> np.ndarray:
     """N_a,i N_b,j at the cell centre times the cell's measure [e, a, i, b, j]."""
-    N, dN = family.shape(np.array([family.centre]))
-    J = jacobian(dN, X)                                              # [e, 1, i, j]
-    g = np.matmul(dN[None], np.linalg.inv(J).transpose(0, 1, 3, 2))[:, 0]   # [e, a, i]
-    e, k, d = g.shape
+    _, dN = family.shape(np.array([family.centre]))
+    g = physical(dN, jacobian(dN, X))[:, 0]                         # [e, a, i]
     measure = scale * wdet.sum(axis=1)                               # the cell's area or volume
     return np.einsum("e,eai,ebj->eaibj", measure, g, g)
 
