@@ -174,7 +174,7 @@ class FieldWriter(Observer):
                 parts = (nan, nan, nan[:, 0])
             else:
                 parts = resultants(self.points[conn], u[conn].reshape(len(conn), 18), wall.E,
-                                   wall.nu, wall.thickness)
+                                   wall.nu, wall.thickness, wall.membrane)
             for name, value in zip(out, parts):
                 out[name].append(value)
         return out

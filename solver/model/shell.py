@@ -4,17 +4,11 @@ Per node the DOFs are (u_x, u_y, u_z, theta_x, theta_y, theta_z) in global
 axes.  In the element's own frame (x along edge 1-2, z the normal) the
 stiffness is the sum of
 
-* **membrane with drilling rotations**: Allman's triangle (Allman 1984), with
-  the plane-stress law E t / (1 - nu^2).  Each corner carries (u, v,
-  theta_z); the in-plane displacement is quadratic, an edge midpoint moving
-  by the mean of its corners plus l/8 (theta_i - theta_j) along the edge's
-  normal (:func:`_allman_map`), and the linear strains are integrated exactly
-  at the edge midpoints (:func:`membrane`);
-* **drilling penalty**: Allman's triangle has one spurious zero-energy mode
-  (equal theta_z at the three corners); a Hughes-Brezzi penalty
-  gamma t A (mean theta_z - omega)^2, omega = (dv/dx - du/dy) / 2 the field's
-  rotation at the centroid and gamma = ``drilling`` x G, removes it.  A rigid
-  rotation about the normal costs nothing;
+* **membrane with drilling rotations**: one of three, ``model.material.membrane``
+  (:mod:`solver.model.shell_membrane`): Allman's triangle with a
+  Hughes-Brezzi penalty (``allman``), Felippa's optimal ANDES membrane
+  (``andes``), or the constant-strain triangle with the drilling penalty
+  alone (``cst``), with the plane-stress law E t / (1 - nu^2);
 * **bending**: the discrete Kirchhoff triangle (DKT, Batoz-Bathe-Ho 1980).
   The slopes (dw/dx, dw/dy) are quadratic; at the corners they are the nodal
   rotations (dw/dx = -theta_y, dw/dy = theta_x); at each edge midpoint the
@@ -30,6 +24,10 @@ the rotary inertia in each rotation (see :func:`lumped_mass`).
 from __future__ import annotations
 
 import numpy as np
+
+from solver.model import shell_membrane as membrane
+from solver.model.shell_membrane import EDGES, MIDPOINTS, CENTRE, gradients, p2_gradients, \
+    plane_stress
 
 CORNER_SLOPES = np.array([[0, 0, -1], [0, 1, 0]], dtype=float)   # (dw/dx, dw/dy) of (w, tx, ty)
 
@@ -59,99 +57,14 @@ def frames(X: np.ndarray):
     return R, x, 0.5 * twice
 
 
-def _gradients(x, A):
-    """dL_i/dx, dL_i/dy of the area coordinates [e, 3, 2]."""
-    xs, ys = x[..., 0], x[..., 1]
-    j, k = [1, 2, 0], [2, 0, 1]
-    b = ys[:, j] - ys[:, k]
-    c = xs[:, k] - xs[:, j]
-    return np.stack([b, c], axis=2) / (2 * A)[:, None, None]
-
-
-def _p2_gradients(g, L):
-    """Gradients of the 6 quadratic shape functions (corners, then midpoints
-    of edges 1-2, 2-3, 3-1) at area coordinates L: [e, 6, 2]."""
-    dN = np.empty((g.shape[0], 6, 2))
-    for a in range(3):
-        dN[:, a] = (4 * L[a] - 1) * g[:, a]
-    for m, (i, j) in enumerate(EDGES):
-        dN[:, 3 + m] = 4 * (L[i] * g[:, j] + L[j] * g[:, i])
-    return dN
-
-
-EDGES = ((0, 1), (1, 2), (2, 0))
-MIDPOINTS = np.array([[0.5, 0.5, 0.0], [0.0, 0.5, 0.5], [0.5, 0.0, 0.5]])
-
-
-def _allman_map(x):
-    """Quadratic in-plane displacements at the 6 nodes from (u, v, theta_z) per
-    corner (Allman 1984): a midpoint moves by the mean of its edge's corners
-    plus l/8 (theta_i - theta_j) along the edge's left normal.  [e, 12, 9]."""
-    n = len(x)
-    T = np.zeros((n, 6, 2, 9))
-    for a in range(3):
-        T[:, a, 0, 3 * a] = T[:, a, 1, 3 * a + 1] = 1.0
-    for m, (i, j) in enumerate(EDGES):
-        d = x[:, j] - x[:, i]                             # = l t; l/8 n_left = (-d_y, d_x) / 8
-        left = np.stack([-d[:, 1], d[:, 0]], axis=1) / 8
-        for a in (i, j):
-            T[:, 3 + m, 0, 3 * a] = T[:, 3 + m, 1, 3 * a + 1] = 0.5
-        T[:, 3 + m, :, 3 * i + 2] += left
-        T[:, 3 + m, :, 3 * j + 2] -= left
-    return T.reshape(n, 12, 9)
-
-
-def _membrane_strain(g, Tm, L):
-    """Membrane strains (xx, yy, 2xy) at area coordinates L from (u, v,
-    theta_z) per node: [e, 3, 9]."""
-    n = len(g)
-    dN = _p2_gradients(g, L)
-    B = np.zeros((n, 3, 6, 2))
-    B[:, 0, :, 0] = dN[..., 0]
-    B[:, 1, :, 1] = dN[..., 1]
-    B[:, 2, :, 0] = dN[..., 1]
-    B[:, 2, :, 1] = dN[..., 0]
-    return np.einsum("ekm,emj->ekj", B.reshape(n, 3, 12), Tm)
-
-
 def _curvature(g, S, L):
     """Curvatures (w_xx, w_yy, 2 w_xy) of the DKT slopes at L from (w,
     theta_x, theta_y) per node: [e, 3, 9]."""
-    dN = _p2_gradients(g, L)
+    dN = p2_gradients(g, L)
     return np.stack([np.einsum("en,end->ed", dN[..., 0], S[:, :, 0]),
                      np.einsum("en,end->ed", dN[..., 1], S[:, :, 1]),
                      np.einsum("en,end->ed", dN[..., 1], S[:, :, 0]) +
                      np.einsum("en,end->ed", dN[..., 0], S[:, :, 1])], axis=1)
-
-
-def _plane_stress(E, nu):
-    return E / (1 - nu ** 2) * np.array([[1, nu, 0], [nu, 1, 0], [0, 0, (1 - nu) / 2]])
-
-
-def membrane(x, A, E, nu, t, drilling):
-    """Membrane stiffness with drilling rotations, local DOFs (u, v, theta_z)
-    per node [e, 9, 9]: Allman's triangle (the linear-strain triangle through
-    :func:`_allman_map`, integrated exactly at the edge midpoints) plus a
-    Hughes-Brezzi penalty gamma t A (mean theta_z - omega)^2 on its one
-    spurious mode, omega the field's rotation (dv/dx - du/dy) / 2 at the
-    centroid and gamma = ``drilling`` x G."""
-    g = _gradients(x, A)                                   # [e, 3(node), 2]
-    n = len(A)
-    Tm = _allman_map(x)
-    D = t * _plane_stress(E, nu)
-    K = np.zeros((n, 9, 9))
-    for L in MIDPOINTS:
-        B = _membrane_strain(g, Tm, L)
-        K += np.einsum("eki,kl,elj->eij", B, D, B) * (A / 3)[:, None, None]
-    dN = _p2_gradients(g, np.full(3, 1 / 3))
-    curl = np.zeros((n, 6, 2))
-    curl[..., 1] = 0.5 * dN[..., 0]
-    curl[..., 0] = -0.5 * dN[..., 1]
-    d = -np.einsum("em,emj->ej", curl.reshape(n, 12), Tm)
-    d[:, 2::3] += 1.0 / 3
-    gamma = drilling * E / (2 * (1 + nu))
-    K += (gamma * t * A)[:, None, None] * np.einsum("ei,ej->eij", d, d)
-    return K
 
 
 def _slope_map(x):
@@ -183,9 +96,9 @@ def _slope_map(x):
 
 def bending(x, A, E, nu, t):
     """DKT bending stiffness in local DOFs (w, theta_x, theta_y) per node [e, 9, 9]."""
-    g = _gradients(x, A)                                   # dL/dx [e, 3, 2]
+    g = gradients(x, A)                                   # dL/dx [e, 3, 2]
     S = _slope_map(x)                                      # [e, 6, 2, 9]
-    D = t ** 3 / 12 * _plane_stress(E, nu)
+    D = t ** 3 / 12 * plane_stress(E, nu)
     K = np.zeros((len(A), 9, 9))
     for L in MIDPOINTS:
         Bk = _curvature(g, S, L)
@@ -201,17 +114,20 @@ MEMBRANE = (6 * np.arange(3)[:, None] + MEMBRANE_DOFS[None, :]).ravel()
 BENDING = (6 * np.arange(3)[:, None] + BENDING_DOFS[None, :]).ravel()
 
 
-def stiffness(X: np.ndarray, E: float, nu: float, t: float, drilling: float = 1e-2) -> np.ndarray:
-    """Global-axes element stiffness [e, 18, 18] of triangles X [e, 3, 3]."""
+def stiffness(X: np.ndarray, E: float, nu: float, t: float, drilling: float = 1e-2,
+              kind: str = "allman") -> np.ndarray:
+    """Global-axes element stiffness [e, 18, 18] of triangles X [e, 3, 3] with
+    the membrane ``kind`` (:data:`solver.model.shell_membrane.KINDS`)."""
     R, x, A = frames(X)
     n = len(A)
     K = np.zeros((n, 18, 18))
-    K[:, MEMBRANE[:, None], MEMBRANE[None, :]] = membrane(x, A, E, nu, t, drilling)
+    K[:, MEMBRANE[:, None], MEMBRANE[None, :]] = membrane.stiffness(kind, x, A, E, nu, t, drilling)
     K[:, BENDING[:, None], BENDING[None, :]] = bending(x, A, E, nu, t)
     T = np.zeros((n, 18, 18))                 # local = T global: R on every 3-vector
     for b in range(6):
         T[:, 3 * b:3 * b + 3, 3 * b:3 * b + 3] = R
-    return np.matmul(np.matmul(T.transpose(0, 2, 1), K), T)   # T^T K T, batched
+    K = np.matmul(np.matmul(T.transpose(0, 2, 1), K), T)      # T^T K T, batched
+    return 0.5 * (K + K.transpose(0, 2, 1))                   # symmetric to the last bit
 
 
 def _local(X, u):
@@ -222,18 +138,18 @@ def _local(X, u):
     return x, A, loc
 
 
-def resultants(X: np.ndarray, u: np.ndarray, E: float, nu: float, t: float):
+def resultants(X: np.ndarray, u: np.ndarray, E: float, nu: float, t: float,
+               kind: str = "allman"):
     """At each element's centroid, in its own frame (x along edge 1-2, z the
     normal): membrane forces N = t D eps (N_xx, N_yy, N_xy) [N/m], moments
     M = t^3/12 D kappa with kappa = (w_xx, w_yy, 2 w_xy) (M_xx, M_yy, M_xy)
     [N m/m], and the largest von Mises stress of the two faces,
     sigma = N / t -+ 6 M / t^2 [Pa].  u: element DOFs in global axes [e, 18]."""
     x, A, loc = _local(X, u)
-    g = _gradients(x, A)
-    centre = np.full(3, 1 / 3)
-    eps = np.einsum("ekj,ej->ek", _membrane_strain(g, _allman_map(x), centre), loc[:, MEMBRANE])
-    kappa = np.einsum("ekj,ej->ek", _curvature(g, _slope_map(x), centre), loc[:, BENDING])
-    D = _plane_stress(E, nu)
+    g = gradients(x, A)
+    eps = np.einsum("ekj,ej->ek", membrane.centre_strain(kind, x, A), loc[:, MEMBRANE])
+    kappa = np.einsum("ekj,ej->ek", _curvature(g, _slope_map(x), CENTRE), loc[:, BENDING])
+    D = plane_stress(E, nu)
     N, M = t * eps @ D.T, t ** 3 / 12 * kappa @ D.T
     mises = np.zeros(len(A))
     for side in (1.0, -1.0):

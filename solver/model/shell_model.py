@@ -43,7 +43,8 @@ class ShellStiffness:
 
     def __getitem__(self, idx) -> np.ndarray:
         m = self.material
-        return shell.stiffness(self.points[self.conn[idx]], m.E, m.nu, m.thickness, m.drilling)
+        return shell.stiffness(self.points[self.conn[idx]], m.E, m.nu, m.thickness, m.drilling,
+                               m.membrane)
 
     def subset(self, mask) -> "ShellStiffness":
         return ShellStiffness(self.points, self.conn[mask], self.material)
@@ -98,6 +99,7 @@ class Wall:
     nu: float
     thickness: float
     drilling: float
+    membrane: str = "allman"
 
 
 class Padded:
@@ -174,7 +176,8 @@ def build_mixed(scene, mesh, solid_cells, mass):
     cells = [(fam, conn, Padded(Ke, fam.n_nodes)) for fam, conn, Ke in solid_cells]
     for i, part in enumerate(spec.shells):
         cell, m, rot = surface(mesh, part.group, f"model.shells[{i}].group", mat,
-                               Wall(mat.E, mat.nu, part.thickness, mat.drilling))
+                               Wall(mat.E, mat.nu, part.thickness, mat.drilling,
+                                    mat.membrane))
         mass += m
         inertia += rot
         on_shell[cell[1]] = True

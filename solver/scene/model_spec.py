@@ -132,8 +132,12 @@ class Material:
                                   "the shell wall's (shell, required; more than 1e-6 x the "
                                   "shell's smallest element edge, where bending ~ t^3 and the "
                                   "rotary inertia lose all scale)", None, positive=True)
+    membrane: Literal["allman", "andes", "cst"] = key(
+        "shell: the triangle's membrane: allman (Allman 1984), andes (Felippa's optimal ANDES "
+        "membrane: bends well in plane) or cst (constant strain: no locking on curved or warped "
+        "thin shells); docs/shells.md measures them on the obstacle course", "allman")
     drilling: float = key("shell: the drilling-rotation penalty gamma / G of the membrane "
-                          "(Hughes-Brezzi, on Allman's one spurious mode)", 1e-2, positive=True)
+                          "(Hughes-Brezzi; allman and cst, not andes)", 1e-2, positive=True)
     tie: float = key("shells on a solid body (model.shells): the penalty gamma / G tying a shell "
                      "node's rotation to the rotation curl(u)/2 of the solid elements around it",
                      1.0, positive=True)
