@@ -62,7 +62,7 @@ class Case:
 def grid(n1, n2, place):
     """Nodes place(s, t) for s, t in [0, 1] ((n1 + 1) x (n2 + 1) of them, index
     grid [n1 + 1, n2 + 1]) and the triangles of the n1 x n2 quads split on
-    their (0, 0)-(1, 1) diagonals."""
+    their (0, 0)-(1, 1) diagonals (the quads: :func:`quads`)."""
     s, t = np.meshgrid(np.linspace(0, 1, n1 + 1), np.linspace(0, 1, n2 + 1), indexing="ij")
     points = place(s.ravel(), t.ravel())
     idx = np.arange(points.shape[0]).reshape(n1 + 1, n2 + 1)
@@ -70,6 +70,12 @@ def grid(n1, n2, place):
                   idx[:-1, 1:].ravel())
     tri = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
     return points, tri, idx
+
+
+def quads(tri):
+    """The quadrilaterals (a, b, c, d) that :func:`grid` split into ``tri``."""
+    half = len(tri) // 2
+    return np.c_[tri[:half], tri[half:, 2]]
 
 
 def _forces(n, loads):
@@ -183,8 +189,8 @@ def curved(load):
         [(inner + t * (outer - inner)) * np.cos(s * np.pi / 2),
          (inner + t * (outer - inner)) * np.sin(s * np.pi / 2), 0 * s], 1))
     tip = idx[-1, :]
-    axis, ref, vector = (UX, -0.08734, (-1.0, 0, 0)) if load == "inplane" else \
-        (UZ, 0.5022, (0, 0, 1.0))
+    axis, ref, vector = (UY, 0.08734, (0, 1.0, 0)) if load == "inplane" else \
+        (UZ, 0.5022, (0, 0, 1.0))              # in plane: across the tip (radial), shear
     return Case(f"curved_{load}", pts, tri, 1e7, 0.25, 0.1, [(idx[0, :], range(6))],
                 _forces(len(pts), [(_edge_weights(tip), vector)]), tip, axis, ref, "6x1")
 
@@ -208,16 +214,23 @@ def course(name: str, n: int = 0) -> Case:
     return curved(name.split("_")[1])
 
 
-def solve(case: Case, membrane: str, drilling: float = 1e-2) -> float:
-    """The probe's mean displacement / the reference, with the membrane ``membrane``."""
-    from solver.model import shell
+def solve(case: Case, element: str, drilling: float = 1e-2) -> float:
+    """The probe's mean displacement / the reference, with the shell triangle
+    of membrane ``element`` (allman, andes, cst) or the quadrilateral (mitc4)."""
+    from solver.model import shell, shell_quad
     from solver.petscutil import aij, init
     P = init()
     n = 6 * len(case.points)
-    K = shell.stiffness(case.points[case.triangles], case.E, case.nu, case.t, drilling, membrane)
-    dofs = (6 * case.triangles[:, :, None] + np.arange(6)).reshape(len(case.triangles), 18)
-    rows = np.repeat(dofs, 18, axis=1).ravel()
-    cols = np.tile(dofs, (1, 18)).ravel()
+    if element == "mitc4":
+        cells = quads(case.triangles)
+        K = shell_quad.stiffness(case.points[cells], case.E, case.nu, case.t, drilling)
+    else:
+        cells = case.triangles
+        K = shell.stiffness(case.points[cells], case.E, case.nu, case.t, drilling, element)
+    k = K.shape[1]
+    dofs = (6 * cells[:, :, None] + np.arange(6)).reshape(len(cells), k)
+    rows = np.repeat(dofs, k, axis=1).ravel()
+    cols = np.tile(dofs, (1, k)).ravel()
     A = aij(rows, cols, K.ravel(), n, P.COMM_SELF, "course_")
     held = np.unique(np.concatenate([(6 * np.asarray(nodes)[:, None] + np.asarray(list(d))).ravel()
                                      for nodes, d in case.held]))

@@ -33,7 +33,6 @@ import h5py
 
 from solver.driver.observers import Observer
 from solver.model.elements import elastic, quadrature, strain_matrix, FAMILIES
-from solver.model.shell import resultants
 
 
 def _open(xdmf: str):
@@ -85,7 +84,7 @@ class FieldWriter(Observer):
                       if fam.meshio is not None]                        # meshio cell name
         # shells: membrane forces, moments and the faces' von Mises stress per
         # triangle (NaN on the solid cells of a model with both)
-        self.shell_blocks = [Ke.material if fam.rotations else None
+        self.shell_blocks = [Ke if fam.rotations else None
                              for fam, _, Ke in mdl.cells if fam.meshio is not None] \
             if self.shell else []
         self.stress_ops = []
@@ -166,15 +165,14 @@ class FieldWriter(Observer):
 
     def _resultants(self, u) -> dict:
         """membrane_force [N/m], moment [N m/m] (element frames) and von_mises
-        [Pa] of every shell triangle (solid cells: NaN)."""
+        [Pa] of every shell cell (solid cells: NaN)."""
         out = {"membrane_force": [], "moment": [], "von_mises": []}
-        for (_, conn), wall in zip(self.cells, self.shell_blocks):
-            if wall is None:
+        for (_, conn), Ke in zip(self.cells, self.shell_blocks):
+            if Ke is None:
                 nan = np.full((len(conn), 3), np.nan)
                 parts = (nan, nan, nan[:, 0])
             else:
-                parts = resultants(self.points[conn], u[conn].reshape(len(conn), 18), wall.E,
-                                   wall.nu, wall.thickness, wall.membrane)
+                parts = Ke.resultants(u[conn].reshape(len(conn), 6 * conn.shape[1]))
             for name, value in zip(out, parts):
                 out[name].append(value)
         return out

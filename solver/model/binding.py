@@ -19,13 +19,12 @@ import numpy as np
 
 from solver.model import data as model_data
 from solver.model.elements import FAMILIES
-from solver.model.shell_model import SHELL3
 from solver.scene import file as scene_file
 from solver.scene.model_spec import DOF_NAMES
 from solver.scene.node_set import NodeSet
 from solver.scene.sections import AUTO, Partition
 from solver.scene.schema import fail, shown
-from solver.model.shell_model import triangles
+from solver.model.shell_model import shell_cells, shell_nodes
 from solver.model.boundary import fixed_dofs
 
 
@@ -137,14 +136,14 @@ def _check_continuum(spec, mesh, store):
         fail("model.material.kind", f"{kind} does not fit a {mesh.dim}D mesh "
              f"(use {wants})")
     if kind == "shell":
-        triangles(mesh, spec.body, "model.body")
+        shell_cells(mesh, spec.body, "model.body")
     if kind in ("plane_stress", "plane_strain") and mesh.z_span > 0:
         fail("model.material.kind", f"{kind} needs a plane mesh (z = const); this surface "
              f"spans {mesh.z_span:.3g} m in z: use shell")
     if kind == "shell":
         _check_wall(mesh, spec.body, spec.material.thickness, "model.material.thickness")
     for i, part in enumerate(spec.shells):
-        triangles(mesh, part.group, f"model.shells[{i}].group")
+        shell_cells(mesh, part.group, f"model.shells[{i}].group")
         _check_wall(mesh, part.group, part.thickness, f"model.shells[{i}].thickness")
     names = DOF_NAMES if kind == "shell" or spec.shells else DOF_NAMES[:mesh.dim]
     for i, c in enumerate(spec.constraints):
@@ -165,9 +164,9 @@ def _check_wall(mesh, group, thickness, key):
     """A shell's thickness against its element size: bending goes as t^3 and a
     node's rotary inertia as t^3 A, so a wall a millionth of its elements' size
     or thinner is no shell to step (t^3 underflows, the step has no scale)."""
-    conn, _ = triangles(mesh, group, key)
-    tri = mesh.points[conn]
-    edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+    edges = np.concatenate([np.linalg.norm(mesh.points[conn] - np.roll(mesh.points[conn], 1, axis=1),
+                                           axis=2).ravel()
+                            for _, conn, _ in shell_cells(mesh, group, key)])
     h = float(edges[edges > 0].min()) if (edges > 0).any() else 0.0
     if thickness <= THINNEST_WALL * h:
         fail(key, f"{thickness:g} m is too thin for shell group {group!r}: a wall must be "
@@ -184,7 +183,7 @@ def _check_free(scene, data, owned, d):
     if spec.shells:                                  # solid-only nodes never rotate
         on_shell = np.zeros(n_mesh, bool)
         for part in spec.shells:
-            on_shell[data.group(part.group).cells[SHELL3.mesh_cells]] = True
+            on_shell[shell_nodes(data, part.group)] = True
         held[~on_shell, 3:] = True
     free = ~held.all(axis=1)
     for p, nodes in enumerate(owned):
@@ -242,7 +241,7 @@ def _owned_nodes(scene, data, n, zone=None) -> list[NodeSet]:
     owner = np.full(n, -1, dtype=np.int64)
     continuum = scene.model.kind == "continuum"
     used = _used(data, data.group(scene.model.body, "model.body"), zone, n,
-                 [data.group(p.group).cells[SHELL3.mesh_cells] for p in scene.model.shells]) \
+                 [shell_nodes(data, p.group) for p in scene.model.shells]) \
         if continuum else np.ones(n, bool)
     out = []
     for p, part in enumerate(scene.partitions):
@@ -292,7 +291,8 @@ def snap(spec, mesh, at, key, zone=None) -> int:
         fail(key, f"{list(at)}: a point of the {dim}D mesh needs {dim} coordinates")
     body = list(mesh.group(spec.body, "model.body").cells.values() if zone is None else
                 zone.fe_cells.values())
-    body += [mesh.group(p.group).cells[SHELL3.mesh_cells] for p in spec.shells]
+    body += [conn for i, p in enumerate(spec.shells)
+             for _, conn, _ in shell_cells(mesh, p.group, f"model.shells[{i}].group")]
     nodes = np.unique(np.concatenate([c.ravel() for c in body])) if body else np.zeros(0, int)
     p = np.asarray(at[:dim], dtype=float)
     if zone is not None:

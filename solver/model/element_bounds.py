@@ -16,7 +16,7 @@ construction.  For the usual meshes the bound is within a few per cent to
 about 30 % of the assembled operator's step (tests/test_levels.py).
 
 Own masses: cells their family's lumped masses (:func:`solver.model.elements.lumped_mass`),
-shell triangles theirs with the scene's rotary inertia rule, springs of a
+shell cells theirs with the scene's rotary inertia rule, springs of a
 network a 1/degree share of each end's point mass (a node with d springs
 lends each a 1/d of its mass; the shares still sum to M).  Other elements
 (lattice bonds, shell-solid ties, transition bands) are not covered: a scene
@@ -36,7 +36,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.errors import SceneError
-from solver.model import shell
 from solver.model.elements import lumped_mass
 
 CHUNK = 4096             # elements whose eigenvalues are computed at a time
@@ -99,14 +98,14 @@ def block_bounds(scene, mdl, conn, Ke, share=None) -> BlockBounds:
             return np.repeat(me[:, :, None], d, axis=2)
         name = fam.name
     elif kind == "ShellStiffness":
-        mat, X = Ke.material, Ke.points[Ke.conn]
+        mat = Ke.material
         rho, rotary = getattr(mat, "rho", None), getattr(mat, "rotary_inertia", None)
         if rho is None or rotary is None:
-            raise NotCovered("shell triangles of a shells section on solids")
+            raise NotCovered("shell cells of a shells section on solids")
 
         def own(sl, d):
-            return shell.lumped_mass(X[sl], rho, mat.thickness, rotary)    # [e, 3, 6]
-        name = "shell3"
+            return Ke.lumped_mass(sl, rho, rotary)                          # [e, k, 6]
+        name = Ke.family.name
     elif isinstance(Ke, np.ndarray) and k in (1, 2) and Ke.shape[1:] == (k, k) and \
             mdl.kind == "network":
         share = _spring_share(mdl) if share is None else share

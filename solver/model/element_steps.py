@@ -25,7 +25,6 @@ import math
 import numpy as np
 
 from solver.model import initial, layout as overlap
-from solver.model.shell_model import SHELL3
 
 SHOWN = 3                # elements listed per partition
 CHUNK = 32768            # cells measured at a time (bounds the temporaries)
@@ -86,7 +85,7 @@ def _length(family, X: np.ndarray) -> np.ndarray:
         edges = np.stack([norm(X[:, 1] - X[:, 0]), norm(X[:, 2] - X[:, 1]),
                           norm(X[:, 0] - X[:, 2])], axis=1)
         return 2 * area(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]) / edges.max(axis=1)
-    if shape == (2, False, 4):                        # quadrilaterals
+    if shape == (2, False, 4):                        # quadrilaterals (quad4, shell4)
         d1, d2 = X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]
         sides = np.stack([norm(X[:, (i + 1) % 4] - X[:, i]) for i in range(4)], axis=1)
         return area(d1, d2) / sides.max(axis=1)
@@ -118,7 +117,7 @@ def _family(Ke):
     if kind == "Padded":                             # shells on solids: the solid cells
         Ke, kind = Ke.Ke, type(Ke.Ke).__name__
     if kind == "ShellStiffness":
-        return SHELL3
+        return Ke.family
     if kind == "CellStiffness":
         return Ke.family
     return None
@@ -258,6 +257,8 @@ def lines(scene, mdl) -> list[str]:
     mat = describe_materials(scene)
     if mat:
         out.append(mat)
+    if mdl.shells is not None:
+        out.append(f"shell elements: {mdl.shells.elements}")
     out += initial.describe(mdl)
     if scene.analysis == "static":
         return out                   # (no step to estimate)

@@ -45,6 +45,7 @@ class Shells:
     every node has 6 DOFs (u_x, u_y, u_z, theta_x, theta_y, theta_z)."""
 
     inertia: np.ndarray          # [n_nodes] rotary inertia of each node's rotations (DOFs 3-5)
+    elements: str = ""           # what was built, for the log: "256 triangles (...), ..."
 
 
 @dataclass(frozen=True)

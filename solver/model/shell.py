@@ -151,12 +151,18 @@ def resultants(X: np.ndarray, u: np.ndarray, E: float, nu: float, t: float,
     kappa = np.einsum("ekj,ej->ek", _curvature(g, _slope_map(x), CENTRE), loc[:, BENDING])
     D = plane_stress(E, nu)
     N, M = t * eps @ D.T, t ** 3 / 12 * kappa @ D.T
-    mises = np.zeros(len(A))
+    return N, M, face_mises(N, M, t)
+
+
+def face_mises(N, M, t):
+    """The larger von Mises stress of the two faces, sigma = N / t -+ 6 M / t^2,
+    from membrane forces and moments (xx, yy, xy) [e, 3]: [e]."""
+    mises = np.zeros(len(N))
     for side in (1.0, -1.0):
         s = N / t - side * 6 * M / t ** 2
         mises = np.maximum(mises, np.sqrt(s[:, 0] ** 2 - s[:, 0] * s[:, 1] + s[:, 1] ** 2 +
                                           3 * s[:, 2] ** 2))
-    return N, M, mises
+    return mises
 
 
 def lumped_mass(X: np.ndarray, rho: float, t: float, rotary: str = "physical") -> np.ndarray:

@@ -63,20 +63,40 @@ def p2_gradients(g, L):
     return dN
 
 
-def _drill_deviation(g):
-    """mean theta_z - omega, omega = (dv/dx - du/dy) / 2 of the corners' linear
-    field: [e, 9] (the row of the Hughes-Brezzi penalty)."""
-    d = np.zeros((len(g), 9))
+def _omega_row(g):
+    """-omega = -(dv/dx - du/dy) / 2 of the corners' field from (u, v,
+    theta_z) per corner, g the shape functions' gradients where omega is
+    taken [e, k, 2]: [e, 3 k] (theta_z columns zero)."""
+    d = np.zeros((g.shape[0], 3 * g.shape[1]))
     d[:, 0::3] = 0.5 * g[:, :, 1]
     d[:, 1::3] = -0.5 * g[:, :, 0]
-    d[:, 2::3] = 1.0 / 3
     return d
 
 
-def _penalty(g, A, E, nu, t, drilling, d=None):
-    d = _drill_deviation(g) if d is None else d
+def _penalty(A, E, nu, t, drilling, d):
+    """gamma t A (d . q)^2, gamma = drilling x G: [e, n, n]."""
     gamma = drilling * E / (2 * (1 + nu))
     return (gamma * t * A)[:, None, None] * np.einsum("ei,ej->eij", d, d)
+
+
+def drilling_springs(g, A, E, nu, t, drilling):
+    """Drilling rotations that strain nothing else: the Hughes-Brezzi penalty
+    gamma t A (mean theta_z - omega)^2 on the mean and, on each corner, a
+    spring drilling x D / k (theta_i - omega)^2 at the plate's bending scale
+    D = E t^3 / (12 (1 - nu^2)) (so it does not lock where the membrane's
+    t-scaled one would); no spurious mode is left.  g: the corners' shape
+    function gradients where omega is taken [e, k, 2].  [e, 3 k, 3 k]."""
+    k = g.shape[1]
+    d = _omega_row(g)
+    mean = d.copy()
+    mean[:, 2::3] = 1.0 / k
+    K = _penalty(A, E, nu, t, drilling, mean)
+    spring = drilling * E * t ** 3 / (12 * (1 - nu ** 2) * k)
+    for i in range(k):
+        d[:, 3 * i + 2] = 1.0
+        K += spring * np.einsum("ei,ej->eij", d, d)
+        d[:, 3 * i + 2] = 0.0
+    return K
 
 
 # ------------------------------------------------------------------ Allman
@@ -126,7 +146,7 @@ def allman(x, A, E, nu, t, drilling):
     curl[..., 0] = -0.5 * dN[..., 1]
     d = -np.einsum("em,emj->ej", curl.reshape(len(A), 12), Tm)
     d[:, 2::3] += 1.0 / 3
-    return K + _penalty(g, A, E, nu, t, drilling, d)
+    return K + _penalty(A, E, nu, t, drilling, d)
 
 
 # ------------------------------------------------------------------- ANDES
@@ -207,18 +227,7 @@ def cst(x, A, E, nu, t, drilling):
     g = gradients(x, A)
     B = _cst_strain(g)
     K = np.einsum("eki,kl,elj->eij", B, t * plane_stress(E, nu), B) * A[:, None, None]
-    K += _penalty(g, A, E, nu, t, drilling)
-    # the penalty holds the mean; each corner's theta_z - omega gets a spring
-    # of drilling x D / 3, the plate's bending scale (so it does not lock
-    # where the membrane's t-scaled one would), which leaves no spurious mode
-    d = _drill_deviation(g)
-    d[:, 2::3] = 0.0
-    spring = drilling * E * t ** 3 / (36 * (1 - nu ** 2))
-    for i in range(3):
-        d[:, 3 * i + 2] = 1.0
-        K += spring * np.einsum("ei,ej->eij", d, d)
-        d[:, 3 * i + 2] = 0.0
-    return K
+    return K + drilling_springs(g, A, E, nu, t, drilling)
 
 
 def stiffness(kind, x, A, E, nu, t, drilling):

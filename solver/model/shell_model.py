@@ -1,12 +1,14 @@
-"""Shell models: a gmsh surface in 3D meshed with triangles (``model.material.kind:
-shell``).
+"""Shell models: a gmsh surface in 3D meshed with triangles, quadrilaterals or
+both (``model.material.kind: shell``).
 
 Every node has 6 DOFs (u_x, u_y, u_z, theta_x, theta_y, theta_z; index
-``node * 6 + c``).  The body's triangles are flat shell elements
-(:mod:`solver.model.shell`); node masses are the lumped translational masses
-and ``inertia`` the lumped rotary inertia of each node's rotations.  Edge
-groups (line2) carry line loads [N/m], surface groups (tri3, e.g. a loaded
-patch of the body) pressure-like loads [N/m^2], both along ``direction``;
+``node * 6 + c``).  The body's triangles are flat shell triangles
+(:mod:`solver.model.shell`), its quadrilaterals MITC4 shells
+(:mod:`solver.model.shell_quad`); node masses are the lumped translational
+masses and ``inertia`` the lumped rotary inertia of each node's rotations.
+Edge groups (line2) carry line loads [N/m], surface groups (tri3 or quad4,
+e.g. a loaded patch of the body) pressure-like loads [N/m^2], both along
+``direction``;
 ``model.fixed`` groups fix all six DOFs and ``model.constraints`` chosen ones
 (symmetry edges).
 """
@@ -17,9 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.errors import SceneError
-from solver.model import shell
+from solver.model import shell, shell_quad
 from solver.model.boundary import fixed_dofs, load_list
-from solver.model.elements import TRI3, Family, elastic, volumes
+from solver.model.elements import QUAD4, TRI3, Family, elastic, volumes
 from solver.model.interface import Shells
 
 # the flat shell triangle: a tri3 of the mesh whose nodes also rotate; not a
@@ -28,67 +30,116 @@ SHELL3 = Family("shell3", 2, 3, TRI3.points, TRI3.weights, TRI3.basis, gmsh=TRI3
                 meshio=TRI3.meshio, xdmf=TRI3.xdmf, facet=TRI3.facet, simplex=True,
                 centre=TRI3.centre, mirror=TRI3.mirror, lumping="row_sum_rotary",
                 rotations=True, mesh_cells=TRI3.name)
+# the MITC4 quadrilateral: a quad4 of the mesh whose nodes rotate (likewise)
+SHELL4 = Family("shell4", 2, 4, QUAD4.points, QUAD4.weights, QUAD4.basis, gmsh=QUAD4.gmsh,
+                meshio=QUAD4.meshio, xdmf=QUAD4.xdmf, facet=QUAD4.facet, centre=QUAD4.centre,
+                corners=QUAD4.corners, mirror=QUAD4.mirror, lumping="row_sum_rotary",
+                rotations=True, mesh_cells=QUAD4.name)
+SHELLS = (SHELL3, SHELL4)
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
 
 
 class ShellStiffness:
-    """K_e of shell triangles, computed when asked (like
-    :class:`solver.model.cell_blocks.CellStiffness`)."""
+    """K_e of shell triangles or quadrilaterals (by the cells' node count),
+    computed when asked (like :class:`solver.model.cell_blocks.CellStiffness`)."""
 
     def __init__(self, points, conn, material):
         self.points, self.conn, self.material = points, conn, material
+        self.family = SHELL3 if conn.shape[1] == 3 else SHELL4
 
     def __len__(self) -> int:
         return len(self.conn)
 
     def __getitem__(self, idx) -> np.ndarray:
-        m = self.material
-        return shell.stiffness(self.points[self.conn[idx]], m.E, m.nu, m.thickness, m.drilling,
-                               m.membrane)
+        m, X = self.material, self.points[self.conn[idx]]
+        if self.family is SHELL4:
+            return shell_quad.stiffness(X, m.E, m.nu, m.thickness, m.drilling)
+        return shell.stiffness(X, m.E, m.nu, m.thickness, m.drilling, m.membrane)
+
+    def lumped_mass(self, idx, rho, rotary) -> np.ndarray:
+        """Nodal masses per element node and DOF [e, k, 6] of cells ``idx``."""
+        kernel = shell_quad if self.family is SHELL4 else shell
+        return kernel.lumped_mass(self.points[self.conn[idx]], rho, self.material.thickness,
+                                  rotary)
+
+    def resultants(self, u):
+        """Membrane forces, moments and von Mises at the centres (element
+        frames) from the cells' DOFs u [e, 6 k]."""
+        m, X = self.material, self.points[self.conn]
+        if self.family is SHELL4:
+            return shell_quad.resultants(X, u, m.E, m.nu, m.thickness)
+        return shell.resultants(X, u, m.E, m.nu, m.thickness, m.membrane)
 
     def subset(self, mask) -> "ShellStiffness":
         return ShellStiffness(self.points, self.conn[mask], self.material)
 
 
-def triangles(mesh, name, where):
-    """The tri3 connectivity of group ``name``; other cells refused."""
+def shell_cells(mesh, name, where):
+    """[(family, conn, gmsh tags)] of group ``name``'s triangles and
+    quadrilaterals; other cells refused."""
     group = mesh.group(name, where)
-    tri = SHELL3.mesh_cells
-    other = sorted(set(group.cells) - {tri})
+    kinds = {f.mesh_cells for f in SHELLS}
+    other = sorted(set(group.cells) - kinds)
     if other:
         raise SceneError(f"{where}: group {name!r} has {', '.join(other)} cells; shell elements "
-                         "are 3-node triangles (mesh the surface with triangles)")
-    if tri not in group.cells:
-        raise SceneError(f"{where}: group {name!r} has no triangles (a shell body is a surface)")
-    return group.cells[tri], group.cell_tags[tri]
+                         "are 3-node triangles and 4-node quadrilaterals (mesh the surface "
+                         "with them)")
+    out = [(f, group.cells[f.mesh_cells], group.cell_tags[f.mesh_cells]) for f in SHELLS
+           if f.mesh_cells in group.cells]
+    if not out:
+        raise SceneError(f"{where}: group {name!r} has no triangles or quadrilaterals (a shell "
+                         "body is a surface)")
+    return out
+
+
+def shell_nodes(mesh, name) -> np.ndarray:
+    """The node ids of group ``name``'s shell cells (triangles and quadrilaterals)."""
+    cells = mesh.group(name).cells
+    return np.unique(np.concatenate([cells[f.mesh_cells].ravel() for f in SHELLS
+                                     if f.mesh_cells in cells] or [np.zeros(0, np.int64)]))
+
+
+def elements(cells, membrane) -> str:
+    """The log's words for the shell cells built: '256 triangles (DKT
+    bending, allman membrane), 128 quadrilaterals (MITC4)'."""
+    words = (f"triangles (DKT bending, {membrane} membrane)", "quadrilaterals (MITC4)")
+    count = [sum(len(conn) for fam, conn, _ in cells if fam is f) for f in SHELLS]
+    return ", ".join(f"{c} {w}" for c, w in zip(count, words) if c)
 
 
 def surface(mesh, group, where, material, wall):
-    """The shell cells of ``group`` (wall: E, nu, thickness, drilling) and
-    their nodal translational masses and rotary inertias [n_nodes]."""
-    conn, tags = triangles(mesh, group, where)
+    """The shell cells of ``group`` (wall: E, nu, thickness, drilling,
+    membrane), one (family, conn, ShellStiffness) per kind, and their nodal
+    translational masses and rotary inertias [n_nodes]."""
     pts, n = mesh.points, len(mesh.points)
-    try:
-        me = shell.lumped_mass(pts[conn], material.rho, wall.thickness, material.rotary_inertia)
-    except shell.BadShell as e:
-        raise SceneError(f"{where}: group {group!r}: gmsh element {int(tags[e.index])} "
-                         f"({SHELL3.mesh_cells}) {str(e).split(' is ', 1)[1]}") from None
-    mass = np.bincount(conn.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
-    inertia = np.bincount(conn.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
-    return (SHELL3, conn, ShellStiffness(pts, conn, wall)), mass, inertia
+    cells = []
+    mass, inertia = np.zeros(n), np.zeros(n)
+    for family, conn, tags in shell_cells(mesh, group, where):
+        Ke = ShellStiffness(pts, conn, wall)
+        try:
+            if family is SHELL4:
+                shell_quad.check(pts[conn])
+            me = Ke.lumped_mass(slice(None), material.rho, material.rotary_inertia)
+        except (shell.BadShell, shell_quad.BadQuad) as e:
+            raise SceneError(f"{where}: group {group!r}: gmsh element {int(tags[e.index])} "
+                             f"({family.mesh_cells}) {str(e).split(' is ', 1)[1]}") from None
+        mass += np.bincount(conn.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
+        inertia += np.bincount(conn.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
+        cells.append((family, conn, Ke))
+    return cells, mass, inertia
 
 
 def build(scene, mesh):
     """The shell model of ``scene`` on ``mesh`` (3D points): the fields of its
     :class:`~solver.model.continuum.ContinuumArrays`."""
     spec = scene.model
-    cell, mass, inertia = surface(mesh, spec.body, "model.body", spec.material, spec.material)
+    cells, mass, inertia = surface(mesh, spec.body, "model.body", spec.material, spec.material)
     pts, n = mesh.points, len(mesh.points)
-    cells = [cell]
     fixed = fixed_dofs(scene, mesh, n, 6)
     loads = load_list(scene, mesh, 6, 3)
     return dict(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed, loads=tuple(loads),
-                u0=np.zeros(6 * n), v0=np.zeros(6 * n), shells=Shells(inertia=inertia))
+                u0=np.zeros(6 * n), v0=np.zeros(6 * n),
+                shells=Shells(inertia=inertia, elements=elements(cells, spec.material.membrane)))
 
 
 # ------------------------------------------------------------ shells and solids
@@ -175,13 +226,14 @@ def build_mixed(scene, mesh, solid_cells, mass):
     on_shell = np.zeros(n, bool)
     cells = [(fam, conn, Padded(Ke, fam.n_nodes)) for fam, conn, Ke in solid_cells]
     for i, part in enumerate(spec.shells):
-        cell, m, rot = surface(mesh, part.group, f"model.shells[{i}].group", mat,
-                               Wall(mat.E, mat.nu, part.thickness, mat.drilling,
-                                    mat.membrane))
+        walls, m, rot = surface(mesh, part.group, f"model.shells[{i}].group", mat,
+                                Wall(mat.E, mat.nu, part.thickness, mat.drilling,
+                                     mat.membrane))
         mass += m
         inertia += rot
-        on_shell[cell[1]] = True
-        cells.append(cell)
+        for cell in walls:
+            on_shell[cell[1]] = True
+        cells += walls
     G = mat.E / (2 * (1 + mat.nu))
     for fam, conn, _ in solid_cells:
         e, a = np.nonzero(on_shell[conn])
@@ -196,4 +248,4 @@ def build_mixed(scene, mesh, solid_cells, mass):
     loads = load_list(scene, mesh, 6, 3)
     return dict(dof=6, points=pts, mass=mass, cells=cells, fixed=fixed, loads=tuple(loads),
                 u0=np.zeros(6 * n), v0=np.zeros(6 * n), material_D=elastic(mat).D(),
-                shells=Shells(inertia=inertia))
+                shells=Shells(inertia=inertia, elements=elements(cells, mat.membrane)))

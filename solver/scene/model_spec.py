@@ -127,17 +127,20 @@ class Material:
     rho: float = key("density [kg/m^3]", positive=True)
     kind: Literal["plane_stress", "plane_strain", "solid", "shell"] = key(
         "plane_stress (2D, with thickness), plane_strain (2D), solid (3D), or shell (a surface "
-        "of triangles in 3D, 6 DOFs per node: ux uy uz rx ry rz; docs/shells.md)", "solid")
+        "of triangles and/or quadrilaterals in 3D, 6 DOFs per node: ux uy uz rx ry rz; "
+        "docs/shells.md)", "solid")
     thickness: float | None = key("thickness [m]: out of plane (plane_stress, default 1) or "
                                   "the shell wall's (shell, required; more than 1e-6 x the "
                                   "shell's smallest element edge, where bending ~ t^3 and the "
                                   "rotary inertia lose all scale)", None, positive=True)
     membrane: Literal["allman", "andes", "cst"] = key(
-        "shell: the triangle's membrane: allman (Allman 1984), andes (Felippa's optimal ANDES "
+        "shell: the triangles' membrane: allman (Allman 1984), andes (Felippa's optimal ANDES "
         "membrane: bends well in plane) or cst (constant strain: no locking on curved or warped "
-        "thin shells); docs/shells.md measures them on the obstacle course", "allman")
+        "thin shells); quadrilaterals are MITC4 either way; docs/shells.md measures them on "
+        "the obstacle course", "allman")
     drilling: float = key("shell: the drilling-rotation penalty gamma / G of the membrane "
-                          "(Hughes-Brezzi; allman and cst, not andes)", 1e-2, positive=True)
+                          "(Hughes-Brezzi; allman, cst and quadrilaterals, not andes)", 1e-2,
+                          positive=True)
     tie: float = key("shells on a solid body (model.shells): the penalty gamma / G tying a shell "
                      "node's rotation to the rotation curl(u)/2 of the solid elements around it",
                      1.0, positive=True)
