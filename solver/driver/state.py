@@ -56,7 +56,7 @@ def _plain(obj):
 # keys added since 2026-12-03, by path, with their unset value: they count only when set
 NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "none"),
               (("initial", "motion"), []), (("model", "integration"), "full"),
-              (("model", "material", "membrane"), "allman"))
+              (("model", "material", "membrane"), "allman"), (("model", "sections"), []))
 
 
 def fingerprint(scene, ranks: bool = False) -> str:

@@ -142,6 +142,9 @@ def _check_continuum(spec, mesh, store):
              f"spans {mesh.z_span:.3g} m in z: use shell")
     if kind == "shell":
         _check_wall(mesh, spec.body, spec.material.thickness, "model.material.thickness")
+    for i, sec in enumerate(spec.sections):
+        shell_cells(mesh, sec.group, f"model.sections[{i}].group")
+        _check_wall(mesh, sec.group, sec.thickness, f"model.sections[{i}].thickness")
     for i, part in enumerate(spec.shells):
         shell_cells(mesh, part.group, f"model.shells[{i}].group")
         _check_wall(mesh, part.group, part.thickness, f"model.shells[{i}].thickness")

@@ -101,31 +101,65 @@ def shell_nodes(mesh, name) -> np.ndarray:
 
 def elements(cells, membrane) -> str:
     """The log's words for the shell cells built: '256 triangles (DKT
-    bending, allman membrane), 128 quadrilaterals (MITC4)'."""
+    bending, allman membrane), 128 quadrilaterals (MITC4)', and their walls
+    where they differ."""
     words = (f"triangles (DKT bending, {membrane} membrane)", "quadrilaterals (MITC4)")
     count = [sum(len(conn) for fam, conn, _ in cells if fam is f) for f in SHELLS]
-    return ", ".join(f"{c} {w}" for c, w in zip(count, words) if c)
+    text = ", ".join(f"{c} {w}" for c, w in zip(count, words) if c)
+    walls = {}
+    for fam, conn, Ke in cells:
+        if fam.rotations:
+            walls[Ke.material.thickness] = walls.get(Ke.material.thickness, 0) + len(conn)
+    if len(walls) > 1:
+        text += "; walls " + ", ".join(f"{t:g} m on {k} cells" for t, k in walls.items())
+    return text
 
 
-def surface(mesh, group, where, material, wall):
+def surface(mesh, group, where, material, wall, sections=()):
     """The shell cells of ``group`` (wall: E, nu, thickness, drilling,
-    membrane), one (family, conn, ShellStiffness) per kind, and their nodal
-    translational masses and rotary inertias [n_nodes]."""
+    membrane), one (family, conn, ShellStiffness) per kind and wall, and their
+    nodal translational masses and rotary inertias [n_nodes].  ``sections``:
+    (group, key, wall) whose cells (of ``group`` too) take that wall."""
     pts, n = mesh.points, len(mesh.points)
     cells = []
     mass, inertia = np.zeros(n), np.zeros(n)
-    for family, conn, tags in shell_cells(mesh, group, where):
-        Ke = ShellStiffness(pts, conn, wall)
-        try:
-            if family is SHELL4:
-                shell_quad.check(pts[conn])
-            me = Ke.lumped_mass(slice(None), material.rho, material.rotary_inertia)
-        except (shell.BadShell, shell_quad.BadQuad) as e:
-            raise SceneError(f"{where}: group {group!r}: gmsh element {int(tags[e.index])} "
-                             f"({family.mesh_cells}) {str(e).split(' is ', 1)[1]}") from None
-        mass += np.bincount(conn.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
-        inertia += np.bincount(conn.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
-        cells.append((family, conn, Ke))
+    body = shell_cells(mesh, group, where)
+    which = [np.full(len(conn), -1) for _, conn, _ in body]
+    for i, (name, key, _) in enumerate(sections):
+        hits = 0
+        for (family, _, tags), w in zip(body, which):
+            sec = next((t for f, _, t in shell_cells(mesh, name, key) if f is family), None)
+            inside = np.isin(tags, sec) if sec is not None else np.zeros(len(tags), bool)
+            if (w[inside] >= 0).any():
+                j = int(w[inside][w[inside] >= 0][0])
+                cell = int(tags[inside & (w >= 0)][0])
+                raise SceneError(f"{key}: gmsh element {cell} is in group {name!r} and in "
+                                 f"{sections[j][1]} ({sections[j][0]!r}); give each cell one "
+                                 "thickness")
+            w[inside] = i
+            hits += int(inside.sum())
+        size = sum(len(t) for _, _, t in shell_cells(mesh, name, key))
+        if hits < size:
+            raise SceneError(f"{key}: group {name!r} has {size - hits} of its {size} cells outside "
+                             f"the shell body {group!r}")
+    for (family, conn, tags), w in zip(body, which):
+        for i, wall_i in [(-1, wall)] + [(i, sec[2]) for i, sec in enumerate(sections)]:
+            mine = w == i
+            if not mine.any():
+                continue
+            Ke = ShellStiffness(pts, conn[mine], wall_i)
+            try:
+                if family is SHELL4:
+                    shell_quad.check(pts[conn[mine]])
+                me = Ke.lumped_mass(slice(None), material.rho, material.rotary_inertia)
+            except (shell.BadShell, shell_quad.BadQuad) as e:
+                raise SceneError(f"{where}: group {group!r}: gmsh element "
+                                 f"{int(tags[mine][e.index])} ({family.mesh_cells}) "
+                                 f"{str(e).split(' is ', 1)[1]}") from None
+            c = conn[mine]
+            mass += np.bincount(c.ravel(), weights=me[:, :, 0].ravel(), minlength=n)
+            inertia += np.bincount(c.ravel(), weights=me[:, :, 3].ravel(), minlength=n)
+            cells.append((family, c, Ke))
     return cells, mass, inertia
 
 
@@ -133,7 +167,11 @@ def build(scene, mesh):
     """The shell model of ``scene`` on ``mesh`` (3D points): the fields of its
     :class:`~solver.model.continuum.ContinuumArrays`."""
     spec = scene.model
-    cells, mass, inertia = surface(mesh, spec.body, "model.body", spec.material, spec.material)
+    m = spec.material
+    sections = [(sec.group, f"model.sections[{i}].group",
+                 Wall(m.E, m.nu, sec.thickness, m.drilling, m.membrane, m.rho, m.rotary_inertia))
+                for i, sec in enumerate(spec.sections)]
+    cells, mass, inertia = surface(mesh, spec.body, "model.body", m, m, sections)
     pts, n = mesh.points, len(mesh.points)
     fixed = fixed_dofs(scene, mesh, n, 6)
     loads = load_list(scene, mesh, 6, 3)
@@ -151,6 +189,8 @@ class Wall:
     thickness: float
     drilling: float
     membrane: str = "allman"
+    rho: float | None = None                # a shell body's section: its mass data too
+    rotary_inertia: str | None = None
 
 
 class Padded:

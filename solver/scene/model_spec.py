@@ -263,6 +263,14 @@ class ShellPart:
 
 
 @dataclass(frozen=True)
+class Section:
+    group: str = key("physical surface group: cells of the shell body (also in model.body's "
+                     "group) that take this thickness")
+    thickness: float = key("their wall thickness [m]; more than 1e-6 x the group's smallest "
+                           "element edge", positive=True)
+
+
+@dataclass(frozen=True)
 class ContinuumModel:
     """An elastic body meshed with gmsh; nodes carry dim DOFs."""
 
@@ -282,9 +290,13 @@ class ContinuumModel:
                                               "(symmetry planes, supports); with model.fixed "
                                               "they must leave each partition a free DOF", ())
     shells: tuple[ShellPart, ...] = key(
-        "solid bodies: shell surfaces (triangles, the body's material) sharing nodes with the "
+        "solid bodies: shell surfaces (triangles and/or quadrilaterals, the body's material) "
+        "sharing nodes with the "
         "solid; every node then has 6 DOFs, a shell node on the solid has its rotation tied to "
         "the solid's (docs/shells.md, \"Shells and solids\")", ())
+    sections: tuple[Section, ...] = key(
+        "shell bodies: a thickness per group of the body's cells (the rest keep "
+        "material.thickness); a cell in two sections is refused", ())
     lattice: LatticeSpec | None = key("bonded DEM lattice for dem partitions", None)
     mesh_parameters: dict[str, float] = key("numbers defined before the .geo is read (the .geo "
                                             "keeps its default with If (!Exists(a)) ...), "
@@ -296,6 +308,9 @@ class ContinuumModel:
         if self.shells and self.material.kind != "solid":
             fail(f"{path}.shells", f"shell surfaces join a solid body (material kind solid), "
                  f"not {self.material.kind}")
+        if self.sections and self.material.kind != "shell":
+            fail(f"{path}.sections", f"sections give a shell body's groups their thickness; a "
+                 f"{self.material.kind} body has none (shells on a solid: model.shells[].thickness)")
         if self.shells and self.lattice is not None:
             fail(f"{path}.lattice", "a model with shells has no lattice")
         if self.material.kind == "shell" and self.lattice is not None:
