@@ -53,10 +53,27 @@ def _plain(obj):
     return obj if isinstance(obj, (int, str, bool, type(None))) else repr(obj)
 
 
-# keys added since 2026-12-03, by path, with their unset value: they count only when set
+# keys added since 2026-12-03, by path ("*": every item of a list), with their
+# unset value: they count only when set
 NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "none"),
               (("initial", "motion"), []), (("model", "integration"), "full"),
-              (("model", "material", "membrane"), "allman"), (("model", "sections"), []))
+              (("model", "material", "membrane"), "allman"), (("model", "sections"), []),
+              (("loads", "*", "pressure"), False))
+
+
+def _drop_unset(section, path, unset):
+    """Remove the key at ``path`` below ``section`` where it holds ``unset``."""
+    if not path or not isinstance(section, (dict, list)):
+        return
+    if path[0] == "*":
+        for item in section if isinstance(section, list) else ():
+            _drop_unset(item, path[1:], unset)
+    elif isinstance(section, dict):
+        if len(path) == 1:
+            if section.get(path[0], unset) == unset:
+                section.pop(path[0], None)
+        else:
+            _drop_unset(section.get(path[0]), path[1:], unset)
 
 
 def fingerprint(scene, ranks: bool = False) -> str:
@@ -70,11 +87,7 @@ def fingerprint(scene, ranks: bool = False) -> str:
     for name in ("output", "balance", "balance_steps"):
         data.pop(name, None)
     for path, unset in NEWER_KEYS:            # a scene without them hashes as before
-        section = data
-        for name in path[:-1]:
-            section = section.get(name) or {}
-        if section.get(path[-1], unset) == unset:
-            section.pop(path[-1], None)
+        _drop_unset(data, path, unset)
     for part in data.get("partitions") or ():
         if isinstance(part, dict) and "ranks" in part and not ranks:
             part["ranks"] = None

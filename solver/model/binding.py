@@ -18,7 +18,7 @@ import dataclasses
 import numpy as np
 
 from solver.model import data as model_data
-from solver.model.elements import FAMILIES
+from solver.model.elements import CELLS, FAMILIES
 from solver.scene import file as scene_file
 from solver.scene.model_spec import DOF_NAMES
 from solver.scene.node_set import NodeSet
@@ -109,6 +109,13 @@ def _traction(ld, path, mesh, space):
     if not any(f in group.cells for f in FACETS):
         fail(f"{path}.group", f"group {ld.group!r} (dim {group.dim}, "
              f"{', '.join(group.cells) or 'no cells'}) has no edges or faces to carry a traction")
+    if ld.pressure:
+        dims = sorted({CELLS[f].dim for f in group.cells})
+        if dims != [space - 1]:
+            fail(f"{path}.group", f"group {ld.group!r} has {', '.join(group.cells)} cells: a "
+                 f"pressure acts on {'faces' if space == 3 else 'edges'} (a surface's cells in "
+                 f"3D, edges in 2D)")
+        return ld
     if ld.direction is not None and len(ld.direction) != space:
         fail(f"{path}.direction", f"needs {space} components")
     if ld.component is not None:

@@ -8,6 +8,7 @@ import numpy as np
 
 from solver.model.elements import CELLS
 from solver.model.loads import PointLoad, load_function
+from solver.model.pressure import nodal_vectors
 from solver.scene.model_spec import DOF_NAMES
 
 _g, _w = np.polynomial.legendre.leggauss(3)
@@ -73,7 +74,15 @@ def load_list(scene, mesh, dof, space):
     for i, load in enumerate(scene.loads):
         g = load_function(load)
         direction = np.asarray(load.direction or [1.0] + [0.0] * (space - 1), dtype=float)
-        if load.group is not None:
+        if load.pressure:
+            v = nodal_vectors(mesh, load.group, f"loads[{i}].group", scene.model.body, space,
+                              shells=scene.model.material.kind == "shell" or
+                              bool(scene.model.shells))
+            for node in np.flatnonzero(np.abs(v).max(axis=1) > 0):
+                for c in range(space):
+                    if v[node, c]:
+                        loads.append(PointLoad(int(node) * dof + c, g, -float(v[node, c])))
+        elif load.group is not None:
             w = facet_forces(mesh, load.group, f"loads[{i}].group")
             for node in np.flatnonzero(w):
                 for c in range(space):

@@ -183,6 +183,10 @@ class Load:
     component: int | None = key(
         "node and at loads: DOF of the node (0 for networks; default 0); group loads: the "
         "traction's axis x, y (, z) = 0, 1 (, 2), instead of direction", None, nonnegative=True)
+    pressure: bool = key(
+        "group loads: a pressure, amplitude in N/m^2 (3D) or N/m (2D), pushing against each "
+        "facet's normal: into the body on its faces (2D: edges), against a shell cell's "
+        "node-order normal on a shell surface; instead of direction", False)
     amplitude: float = key("A [N] (sine, half_sine, rectangular; a tabulated load's table "
                            "holds its values)", 1.0)
     omega: float | None = key("angular frequency [rad/s] (sine)", None, positive=True)
@@ -197,6 +201,11 @@ class Load:
         if self.direction is not None and not any(self.direction):
             fail(f"{path}.direction", f"{list(self.direction)} is the zero vector: a traction "
                  "needs a direction")
+        if self.pressure and self.group is None:
+            fail(f"{path}.pressure", "is for group loads (a pressure on faces or edges)")
+        if self.pressure and (self.direction is not None or self.component is not None):
+            fail(f"{path}.{'direction' if self.direction is not None else 'component'}",
+                 "a pressure acts along each facet's normal: give no direction or component")
         if self.direction is not None and self.group is None:
             fail(f"{path}.direction", "is for group loads (tractions); a node or at load acts "
                  "on its DOF component")
