@@ -13,6 +13,8 @@
 //   (straight-line distances, metres).  h_bend > h_min keeps the smallest
 //   triangles at the impact.  Defaults: 13,115 nodes, 26,060 triangles, largest
 //   / smallest estimated step 13.5 (docs/shells.md, "The graded mesh").
+// quads = 1 recombines the triangles into quadrilaterals (Blossom; the few
+// left over stay triangles), at the same sizes.
 // Groups: tube (all), explicit (the ae-degree sector of the bend around the
 // impact), implicit (the rest), symmetry (the apex circle), clamped (the leg's
 // end circle).
@@ -74,3 +76,8 @@ Mesh.MeshSizeFromPoints = 0;
 Mesh.MeshSizeFromCurvature = 0;
 Mesh.MeshSizeMin = Min(h_min, h_bend);
 Mesh.MeshSizeMax = h_max;
+If (!Exists(quads)) quads = 0; EndIf
+If (quads)
+  Mesh.RecombineAll = 1;
+  Mesh.RecombinationAlgorithm = 1;        // Blossom
+EndIf
