@@ -164,15 +164,20 @@ class FieldWriter(Observer):
             self.write(t)
 
     def _resultants(self, u) -> dict:
-        """membrane_force [N/m], moment [N m/m] (element frames) and von_mises
-        [Pa] of every shell cell (solid cells: NaN)."""
-        out = {"membrane_force": [], "moment": [], "von_mises": []}
+        """membrane_force [N/m], moment [N m/m], the stresses (xx, yy, xy) at the
+        top (+z of the cell frame), middle and bottom surfaces, sigma = N / t
+        -+ 6 M / t^2 [Pa], and von_mises [Pa] (the larger face's) of every shell
+        cell (solid cells: NaN)."""
+        out = {name: [] for name in ("membrane_force", "moment", "stress_top", "stress_middle",
+                                     "stress_bottom", "von_mises")}
         for (_, conn), Ke in zip(self.cells, self.shell_blocks):
             if Ke is None:
                 nan = np.full((len(conn), 3), np.nan)
-                parts = (nan, nan, nan[:, 0])
+                parts = (nan, nan, nan, nan, nan, nan[:, 0])
             else:
-                parts = Ke.resultants(u[conn].reshape(len(conn), 6 * conn.shape[1]))
+                N, M, mises = Ke.resultants(u[conn].reshape(len(conn), 6 * conn.shape[1]))
+                t = Ke.material.thickness
+                parts = (N, M, N / t - 6 * M / t ** 2, N / t, N / t + 6 * M / t ** 2, mises)
             for name, value in zip(out, parts):
                 out[name].append(value)
         return out
