@@ -1,7 +1,7 @@
 """Cook's membrane (configs/cook_membrane.yaml, meshes/cook.geo): the
 vertical displacement of the corner C = (48, 60) as the mesh is refined, for
-triangles (tri3), quadrilaterals with full integration and with selective
-integration (model.integration), at nu = 1/3 and near incompressible
+triangles (tri3), quadrilaterals with full, selective and reduced (one
+point, hourglass 0.1) integration (model.integration), at nu = 1/3 and near incompressible
 (nu = 0.4999), plane strain, statically.
 
     python benchmarks/bench_cook.py [--levels 4,8,16,32,64]
@@ -29,7 +29,8 @@ import solver  # noqa: E402  (first: one BLAS thread, as in the solver)
 from tables import write  # noqa: E402
 
 PUBLISHED = 32.25
-ELEMENTS = (("tri3", 0, "full"), ("quad4 full", 1, "full"), ("quad4 selective", 1, "selective"))
+ELEMENTS = (("tri3", 0, "full"), ("quad4 full", 1, "full"), ("quad4 selective", 1, "selective"),
+            ("quad4 reduced", 1, "reduced"))
 
 
 def corner(n, quads, integration, nu, out):

@@ -58,7 +58,7 @@ def _plain(obj):
 NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "none"),
               (("initial", "motion"), []), (("model", "integration"), "full"),
               (("model", "material", "membrane"), "allman"), (("model", "sections"), []),
-              (("loads", "*", "pressure"), False))
+              (("loads", "*", "pressure"), False), (("model", "hourglass"), 0.1))
 
 
 def _drop_unset(section, path, unset):
@@ -70,7 +70,7 @@ def _drop_unset(section, path, unset):
             _drop_unset(item, path[1:], unset)
     elif isinstance(section, dict):
         if len(path) == 1:
-            if section.get(path[0], unset) == unset:
+            if section.get(path[0], unset) in (unset, _plain(unset)):
                 section.pop(path[0], None)
         else:
             _drop_unset(section.get(path[0]), path[1:], unset)

@@ -278,7 +278,7 @@ def _build(scene, mesh, reach, store):
     if spec.material.kind == "shell":
         return ContinuumArrays(**shell_model.build(scene, mesh))
     dim = mesh.dim
-    mat = elastic(spec.material, spec.integration)
+    mat = elastic(spec.material, spec.integration, spec.hourglass)
     zone = None
     if spec.lattice is not None and spec.lattice.transition:
         zone = store.transition(spec, mesh)

@@ -209,7 +209,8 @@ class Elastic:
     rho: float
     kind: str = "solid"
     thickness: float = 1.0
-    integration: str = "full"     # or "selective": the lambda term at the cell centre (stiffness)
+    integration: str = "full"     # selective: the lambda term at the centre; reduced: all of it
+    hourglass: float = 0.1        # reduced: the hourglass stiffness coefficient
 
     def D(self) -> np.ndarray:
         E, nu = self.E, self.nu
@@ -239,11 +240,12 @@ class Elastic:
         return self.thickness if self.kind == "plane_stress" else 1.0
 
 
-def elastic(material, integration: str = "full") -> Elastic:
+def elastic(material, integration: str = "full", hourglass: float = 0.1) -> Elastic:
     """The law of a scene's ``model.material`` (thickness 1 where it gives none),
     its cells integrated as ``model.integration`` says."""
     return Elastic(material.E, material.nu, material.rho, material.kind,
-                   material.thickness if material.thickness is not None else 1.0, integration)
+                   material.thickness if material.thickness is not None else 1.0, integration,
+                   hourglass)
 
 
 class BadElement(ValueError):
@@ -362,6 +364,10 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
     scale = material.measure()
     K = np.empty((n_el, k * d, k * d))
     selective = material.integration == "selective" and len(family.weights) > 1
+    if material.integration == "reduced" and len(family.weights) > 1:
+        for s in range(0, n_el, CHUNK):
+            K[s:s + CHUNK] = _reduced(family, X[s:s + CHUNK], material, lam, mu, scale)
+        return K
     for s in range(0, n_el, CHUNK):
         try:
             _, dNdx, wdet = quadrature(family, X[s:s + CHUNK])
@@ -377,6 +383,39 @@ def stiffness(family: Family, X: np.ndarray, material: Elastic) -> np.ndarray:
         Ke += mu * tr[:, :, None, :, None] * np.eye(d)[None, None, :, None, :]
         K[s:s + CHUNK] = Ke.reshape(e, k * d, k * d)
     return K
+
+
+def _reduced(family: Family, X: np.ndarray, material: Elastic, lam, mu, scale) -> np.ndarray:
+    """One-point K_e with Flanagan & Belytschko's (1981) mean gradients b =
+    (1/V) integral of dN/dx (exact for a linear field on any cell, so the
+    patch test holds; the centre's gradient on a 2D quad), V b^T D b, plus
+    their hourglass stiffness: for each hourglass base h (the products xi eta
+    (, eta zeta, zeta xi, xi eta zeta) of the nodes' reference coordinates)
+    its vector gamma = h - sum_i (h . x_i) b_i, orthogonal to every linear
+    field, gets c 2 mu V |b|^2 / dim gamma gamma^T on each displacement
+    component (c = ``material.hourglass``; on the shear modulus, so that it
+    does not lock as nu -> 0.5)."""
+    try:
+        _, dNdx, wdet = quadrature(family, X)
+    except BadElement as e:
+        raise BadElement(e.index, e.detj) from None
+    e, k, d = X.shape[0], family.n_nodes, family.dim
+    measure = scale * wdet.sum(axis=1)
+    b = np.einsum("eq,eqai->eai", wdet, dNdx) / wdet.sum(axis=1)[:, None, None]   # mean grad N
+    T = np.einsum("e,eai,ebj->eaibj", measure, b, b)
+    Ke = lam * T + mu * T.transpose(0, 1, 4, 3, 2)
+    Ke += mu * np.einsum("eaibi->eab", T)[:, :, None, :, None] * np.eye(d)[None, None, :, None, :]
+    ref = family.corners
+    bases = [ref[:, 0] * ref[:, 1]] if d == 2 else \
+        [ref[:, 1] * ref[:, 2], ref[:, 2] * ref[:, 0], ref[:, 0] * ref[:, 1],
+         ref[:, 0] * ref[:, 1] * ref[:, 2]]
+    c = material.hourglass * 2 * mu * measure * np.einsum("eai,eai->e", b, b) / d
+    H = np.zeros((e, k, k))
+    for h in bases:
+        gamma = h[None, :] - np.einsum("a,eai,ebi->eb", h, X, b)           # [e, a]
+        H += c[:, None, None] * np.einsum("ea,eb->eab", gamma, gamma)
+    Ke += H[:, :, None, :, None] * np.eye(d)[None, None, :, None, :]
+    return Ke.reshape(e, k * d, k * d)
 
 
 def _centre_term(family: Family, X: np.ndarray, wdet: np.ndarray, scale: float) -> np.ndarray:

@@ -278,11 +278,17 @@ class ContinuumModel:
     mesh: str = key("gmsh .geo (meshed on reading) or .msh file, relative to the scene file")
     material: Material = key("linear elastic material")
     body: str = key("physical group of the body's cells", "solid")
-    integration: Literal["full", "selective"] = key(
-        "quad4 and hex8 cells: full (2x2 / 2x2x2 Gauss points), or selective: the volumetric "
-        "lambda term at the cell centre, the shear terms full (Hughes' selective reduced "
-        "integration, B-bar for isotropic materials): no volumetric locking as nu -> 0.5 "
-        "(tri3 and tet4 take one point either way)", "full")
+    integration: Literal["full", "selective", "reduced"] = key(
+        "quad4 and hex8 cells: full (2x2 / 2x2x2 Gauss points), selective (the volumetric "
+        "lambda term at the cell centre, the shear terms full: Hughes' selective reduced "
+        "integration, B-bar for isotropic materials: no volumetric locking as nu -> 0.5), or "
+        "reduced (everything at the centre, one point, with Flanagan-Belytschko hourglass "
+        "stiffness, model.hourglass); tri3 and tet4 take one point either way", "full")
+    hourglass: float = key(
+        "integration reduced: the hourglass stiffness c of quad4 and hex8 cells, the "
+        "hourglass modes' stiffness c 2 mu V |grad N|^2 / dim (Flanagan-Belytschko 1981, "
+        "stiffness form, on the shear modulus: no volumetric locking); 0 < c <= 1", 0.1,
+        positive=True)
     fixed: tuple[str, ...] = key("physical groups whose nodes are fixed (all components); a "
                                  "partition must keep a free DOF (one whose every DOF is held "
                                  "has nothing to step and is refused)", ())
@@ -308,6 +314,12 @@ class ContinuumModel:
         if self.shells and self.material.kind != "solid":
             fail(f"{path}.shells", f"shell surfaces join a solid body (material kind solid), "
                  f"not {self.material.kind}")
+        if self.hourglass > 1.0:
+            fail(f"{path}.hourglass", f"{self.hourglass} is out of range: 0 < hourglass <= 1 (a "
+                 "fraction of the cell's own stiffness; 0.05-0.15 is usual)")
+        if self.hourglass != 0.1 and self.integration != "reduced":
+            fail(f"{path}.hourglass", f"is for integration: reduced (this model integrates "
+                 f"{self.integration})")
         if self.sections and self.material.kind != "shell":
             fail(f"{path}.sections", f"sections give a shell body's groups their thickness; a "
                  f"{self.material.kind} body has none (shells on a solid: model.shells[].thickness)")
