@@ -143,3 +143,32 @@ def test_a_checkpoint_knows_its_pressure(tmp_path):
     del older["loads"][0]["pressure"]
     prints = [fingerprint(binding.from_dict(r)) for r in (traction, older, box(tmp_path, 1))]
     assert prints[0] == prints[1] != prints[2]
+
+
+def test_a_pressure_inside_or_off_the_body_is_refused(tmp_path):
+    """A surface embedded in the block (on two of its cells) and, on a shell
+    model, a patch that is not the body's: one line naming the element."""
+    geo = tmp_path / "crack.geo"
+    geo.write_text("""SetFactory("OpenCASCADE");
+Box(1) = {0, 0, 0, 0.2, 0.1, 0.1};
+Rectangle(10) = {0.1, 0.02, 0.02, 0.06, 0.06}; Rotate{{0, 1, 0}, {0.1, 0.02, 0.02}, -Pi/2}{Surface{10};}
+BooleanFragments{ Volume{1}; Delete; }{ Surface{10}; Delete; }
+Mesh.CharacteristicLengthMax = 0.04;
+Physical Volume("solid") = {1};
+Physical Surface("x0") = Surface In BoundingBox {-1e-6, -1, -1, 1e-6, 1, 1};
+Physical Surface("y0") = Surface In BoundingBox {-1, -1e-6, -1, 1, 1e-6, 1};
+Physical Surface("z0") = Surface In BoundingBox {-1, -1, -1e-6, 1, 1, 1e-6};
+Physical Surface("x1") = Surface In BoundingBox {0.1 - 1e-6, 0.01, 0.01, 0.1 + 1e-6, 0.09, 0.09};
+""")
+    raw = box(tmp_path, 0)
+    raw["model"].update(mesh=str(geo), mesh_parameters={})
+    line = refused(str(write_scene(tmp_path / "crack.yaml", raw)), [], tmp_path)
+    assert "of group 'x1' lies inside the body (on two of its cells)" in line, line
+    from test_shell_sections import stepped
+    raw = stepped(tmp_path, 0, sections=())
+    raw["model"]["body"] = "root"
+    raw["loads"] = [{"group": "tip", "pressure": True, "kind": "rectangular", "amplitude": 1.0,
+                     "duration": 2.0}]
+    raw["probes"] = []
+    line = refused(str(write_scene(tmp_path / "off.yaml", raw)), [], tmp_path)
+    assert "of group 'tip' lies on no cell of the body nor of a shell surface" in line, line

@@ -75,12 +75,14 @@ def load_list(scene, mesh, dof, space):
         g = load_function(load)
         direction = np.asarray(load.direction or [1.0] + [0.0] * (space - 1), dtype=float)
         if load.pressure:
-            v = nodal_vectors(mesh, load.group, f"loads[{i}].group", scene.model.body, space,
-                              shells=scene.model.material.kind == "shell" or
-                              bool(scene.model.shells))
+            spec = scene.model
+            shells = ([spec.body] if spec.material.kind == "shell" else []) + \
+                [part.group for part in spec.shells]
+            v = nodal_vectors(mesh, load.group, f"loads[{i}].group", spec.body, space, shells)
+            size = np.abs(v).max(initial=0.0)
             for node in np.flatnonzero(np.abs(v).max(axis=1) > 0):
                 for c in range(space):
-                    if v[node, c]:
+                    if abs(v[node, c]) > 1e-14 * size:      # (not a component's round-off)
                         loads.append(PointLoad(int(node) * dof + c, g, -float(v[node, c])))
         elif load.group is not None:
             w = facet_forces(mesh, load.group, f"loads[{i}].group")

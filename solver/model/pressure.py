@@ -4,10 +4,12 @@ facets pushes against each facet's normal, the nodal force of node a being
 weighs).
 
 The normal of a facet on a body cell (an edge of a 2D body, a face of a 3D
-one) points out of that cell, so a positive pressure pushes into the body; a
-facet on no body cell is a shell cell (triangle or quadrilateral of a shell
-surface), whose normal follows its node order (the right-hand rule), as the
-shell element's frame does.  The normal is the reference one: the models are
+one) points out of that cell, so a positive pressure pushes into the body
+(a shell skin on a solid's face too); a facet on no body cell must be a
+shell cell (triangle or quadrilateral of the shell body or of model.shells),
+whose normal follows its node order (the right-hand rule), as the shell
+element's frame does.  A facet inside the body (on two of its cells) or on
+no cell of the model is refused.  The normal is the reference one: the models are
 geometrically linear (small displacements and rotations), so the load does
 not turn with the surface.
 """
@@ -39,37 +41,40 @@ def area_vectors(family, X) -> np.ndarray:
     return np.einsum("eqx,qa->eax", np.cross(T[:, :, 0], T[:, :, 1]), N)
 
 
-def outward(facets, normal, centre, body) -> np.ndarray:
-    """Per facet [f]: +1 where its ``normal`` points out of a body cell it lies
-    on, -1 where into it, 0 on none.  facets [f, k] node ids, centre [f,
-    space] their centroids; ``body``: [(conn, cell centroids)] of the body's
-    cell blocks."""
+def outward(facets, normal, centre, body):
+    """(sign, count) per facet [f]: ``count`` the body cells it lies on, and
+    ``sign`` +1 where its ``normal`` points out of the first of them, -1
+    where into it, 0 on none.  facets [f, k] node ids, centre [f, space]
+    their centroids; ``body``: [(conn, cell centroids)] of the body's cell
+    blocks."""
     sign = np.zeros(len(facets), dtype=np.int8)
+    count = np.zeros(len(facets), dtype=np.int64)
     first = facets[:, 0]
     for conn, cc in body:
         k = conn.shape[1]
         flat = conn.ravel()
         order = np.argsort(flat, kind="stable")
-        count = np.bincount(flat, minlength=int(max(flat.max(), first.max())) + 1)
-        ptr = np.concatenate([[0], np.cumsum(count)])
-        degree = count[first]
+        per_node = np.bincount(flat, minlength=int(max(flat.max(), first.max())) + 1)
+        ptr = np.concatenate([[0], np.cumsum(per_node)])
+        degree = per_node[first]
         for j in range(int(degree.max()) if degree.size else 0):
-            f = np.flatnonzero((sign == 0) & (degree > j))
-            if not f.size:
-                break
+            f = np.flatnonzero(degree > j)
             cell = order[ptr[first[f]] + j] // k
             on = (conn[cell][:, :, None] == facets[f][:, None, :]).any(axis=1).all(axis=1)
             f, cell = f[on], cell[on]
-            side = np.einsum("fx,fx->f", normal[f], centre[f] - cc[cell])
-            sign[f] = np.where(side > 0, 1, -1)
-    return sign
+            count[f] += 1
+            new = sign[f] == 0
+            side = np.einsum("fx,fx->f", normal[f[new]], centre[f[new]] - cc[cell[new]])
+            sign[f[new]] = np.where(side > 0, 1, -1)
+    return sign, count
 
 
-def nodal_vectors(mesh, group_name, where, body_name, space, shells=False) -> np.ndarray:
+def nodal_vectors(mesh, group_name, where, body_name, space, shell_groups=()) -> np.ndarray:
     """sum over the group's facets of v_ea, each facet's normal turned out of
-    the body cell it lies on: [n_nodes, space].  Facets on no body cell keep
-    their node order's normal where they are shell cells (``shells``: the
-    model has shell surfaces); otherwise refused."""
+    the body cell it lies on: [n_nodes, space].  A facet on no body cell
+    keeps its node order's normal where it is a cell of ``shell_groups``
+    (the shell body, model.shells); one on no cell of either, or inside the
+    body (on two of its cells), is refused."""
     group = mesh.group(group_name, where)
     body = []
     for name, conn in mesh.group(body_name).cells.items():
@@ -79,14 +84,22 @@ def nodal_vectors(mesh, group_name, where, body_name, space, shells=False) -> np
     out = np.zeros((len(mesh.points), space))
     for name, conn in group.cells.items():
         family = CELLS[name]
+        tags = group.cell_tags[name]
         X = mesh.points[conn][:, :, :space]
         v = area_vectors(family, X)
-        sign = outward(conn, v.sum(axis=1), X.mean(axis=1), body) if body else \
-            np.zeros(len(conn), dtype=np.int8)
-        if (sign == 0).any() and not (shells and family.dim == 2):
-            tag = int(group.cell_tags[name][np.argmax(sign == 0)])
-            fail(where, f"gmsh element {tag} ({name}) of group {group_name!r} lies on no cell "
-                 "of the body: a pressure needs the body's side of it")
+        sign, count = outward(conn, v.sum(axis=1), X.mean(axis=1), body)
+        shell = np.zeros(len(conn), bool)
+        for g in shell_groups:
+            cells = mesh.group(g).cell_tags
+            if name in cells:
+                shell |= np.isin(tags, cells[name])
+        for bad, words in ((count > 1, "lies inside the body (on two of its cells): a pressure "
+                                       "acts on its boundary"),
+                           ((count == 0) & ~shell, "lies on no cell of the body nor of a shell "
+                                                   "surface: nothing would carry it")):
+            if bad.any():
+                fail(where, f"gmsh element {int(tags[np.argmax(bad)])} ({name}) of group "
+                     f"{group_name!r} {words}")
         v *= np.where(sign == 0, 1, sign)[:, None, None]
         for a in range(conn.shape[1]):
             np.add.at(out, conn[:, a], v[:, a])

@@ -15,8 +15,8 @@ each a [e, 9, 9] stiffness in local DOFs (u, v, theta_z) per corner.
   deviatoric rotations theta_i - omega, 3/4 beta_0 t A sum over the edge
   midpoints of Q^T T_e^T D T_e Q (natural strains along the edges, beta_1..9
   = 1, 2, 1, 0, 1, -1, -1, -1, -2, beta_0 = max((1 - 4 nu^2) / 2, 0.01)).
-  Pure in-plane bending of a rectangle is exact at any aspect ratio (nu =
-  0); no spurious mode, so no penalty.
+  A pure-bending field's energy in a rectangle of two triangles is exact
+  at any aspect ratio (nu = 0); no spurious mode, so no penalty.
 * ``cst``: the constant-strain triangle on the corners' translations plus the
   Hughes-Brezzi drilling penalty gamma t A (mean theta_z - omega)^2 and, on
   each corner, a spring drilling x D / 3 (theta_i - omega)^2 at the plate's

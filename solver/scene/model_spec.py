@@ -139,8 +139,9 @@ class Material:
         "thin shells); quadrilaterals are MITC4 either way; docs/shells.md measures them on "
         "the obstacle course", "allman")
     drilling: float = key("shell: the drilling-rotation penalty gamma / G of the membrane "
-                          "(Hughes-Brezzi; allman, cst and quadrilaterals, not andes)", 1e-2,
-                          positive=True)
+                          "(Hughes-Brezzi; allman, cst and quadrilaterals, not andes); cst and "
+                          "quadrilaterals also take drilling x D / k per corner (D = E t^3 / "
+                          "(12 (1 - nu^2)), k corners)", 1e-2, positive=True)
     tie: float = key("shells on a solid body (model.shells): the penalty gamma / G tying a shell "
                      "node's rotation to the rotation curl(u)/2 of the solid elements around it",
                      1.0, positive=True)
@@ -257,7 +258,8 @@ class LatticeSpec:
 
 @dataclass(frozen=True)
 class ShellPart:
-    group: str = key("physical surface group of shell triangles joined to the solid body")
+    group: str = key("physical surface group of shell triangles and/or quadrilaterals joined "
+                     "to the solid body")
     thickness: float = key("the shell wall's thickness [m]; more than 1e-6 x the surface's "
                            "smallest element edge", positive=True)
 
