@@ -266,3 +266,31 @@ def test_a_strip_of_quadrilaterals_welded_to_a_solid():
     raw = block_strip()
     raw["model"]["mesh_parameters"]["quads"] = 1
     assert strip_tip(raw) == pytest.approx(1.0, abs=0.01)
+
+
+def test_a_mixed_body_with_sections_and_pressure_on_two_ranks(tmp_path):
+    """The stepped strip of tests/test_shell_sections.py as quads in its root
+    half and ANDES triangles with a 5 mm section in its tip half (mixed.geo
+    style), under a pressure, explicit, its one partition split over 2 ranks:
+    the tip's history is the 1-rank run's to 1e-12."""
+    import h5py
+    from test_shell_sections import GEO, stepped
+    raw = stepped(tmp_path, 0, analysis="dynamic", time={"end": 2e-4, "dt": 4e-7},
+                  partitions=[{"name": "all", "method": "fem", "group": "strip",
+                               "integrator": "explicit", "ratio": 1}],
+                  loads=[{"group": "strip", "pressure": True, "kind": "half_sine",
+                          "amplitude": 1.0e3, "duration": 1e-4}])
+    geo = tmp_path / "mixed.geo"
+    geo.write_text(GEO.replace("If (quads) Recombine Surface{1, 2}; EndIf", "Recombine Surface{1};"))
+    raw["model"]["mesh"] = str(geo)
+    raw["model"]["material"]["membrane"] = "andes"
+    out = []
+    for n in (None, 2):
+        raw["output"] = {"file": str(tmp_path / f"m{n}.h5")}
+        proc = run_cli([write_scene(tmp_path / f"m{n}.yaml", raw)], n=n, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        assert "0.005 m on 40 cells, 0.01 m on 20 cells" in proc.stdout and "20 quadrilaterals" in proc.stdout
+        with h5py.File(tmp_path / f"m{n}.h5") as f:
+            out.append(f["probes/tip/displacement"][()])
+    assert np.abs(out[0]).max() > 0
+    assert np.abs(out[0] - out[1]).max() <= 1e-12 * np.abs(out[0]).max()

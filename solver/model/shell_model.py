@@ -45,7 +45,12 @@ class ShellStiffness:
 
     def __init__(self, points, conn, material):
         self.points, self.conn, self.material = points, conn, material
-        self.family = SHELL3 if conn.shape[1] == 3 else SHELL4
+
+    @property
+    def family(self) -> Family:
+        """SHELL3 or SHELL4 by the cells' node count (never stored: a pickled
+        copy on another rank must answer with this module's objects)."""
+        return SHELL4 if self.conn.shape[1] == 4 else SHELL3
 
     def __len__(self) -> int:
         return len(self.conn)
