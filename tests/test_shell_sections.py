@@ -102,6 +102,15 @@ def test_bad_sections_are_refused(tmp_path, sections, message):
     assert message in line, line
 
 
+def test_a_section_outside_the_body_is_refused(tmp_path):
+    raw = stepped(tmp_path)
+    raw["model"]["body"] = "root"
+    raw["loads"], raw["probes"] = [], []
+    line = refused(str(write_scene(tmp_path / "out.yaml", raw)), [], tmp_path)
+    assert "model.sections[0].group: group 'tip' has 40 of its 40 cells outside the shell " \
+        "body 'root'" in line, line
+
+
 def test_sections_belong_to_shell_bodies(tmp_path):
     line = refused("configs/wave_bar_fem.yaml",
                    ['model.sections=[{group: solid, thickness: 0.01}]'], tmp_path)
