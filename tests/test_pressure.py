@@ -146,8 +146,9 @@ def test_a_checkpoint_knows_its_pressure(tmp_path):
 
 
 def test_a_pressure_inside_or_off_the_body_is_refused(tmp_path):
-    """A surface embedded in the block (on two of its cells) and, on a shell
-    model, a patch that is not the body's: one line naming the element."""
+    """A surface embedded in the block (on two of its cells), naming the
+    element, and, on a shell model, a pressure or a traction on a patch that
+    is not the body's, naming the nodes off it."""
     geo = tmp_path / "crack.geo"
     geo.write_text("""SetFactory("OpenCASCADE");
 Box(1) = {0, 0, 0, 0.2, 0.1, 0.1};
@@ -167,8 +168,10 @@ Physical Surface("x1") = Surface In BoundingBox {0.1 - 1e-6, 0.01, 0.01, 0.1 + 1
     from test_shell_sections import stepped
     raw = stepped(tmp_path, 0, sections=())
     raw["model"]["body"] = "root"
-    raw["loads"] = [{"group": "tip", "pressure": True, "kind": "rectangular", "amplitude": 1.0,
-                     "duration": 2.0}]
     raw["probes"] = []
-    line = refused(str(write_scene(tmp_path / "off.yaml", raw)), [], tmp_path)
-    assert "of group 'tip' lies on no cell of the body nor of a shell surface" in line, line
+    for load in ({"pressure": True}, {"direction": [0.0, 0.0, 1.0]}):     # a traction too
+        raw["loads"] = [{"group": "tip", "kind": "rectangular", "amplitude": 1.0,
+                         "duration": 2.0, **load}]
+        line = refused(str(write_scene(tmp_path / "off.yaml", raw)), [], tmp_path)
+        assert "loads[0].group: group 'tip': 30 of its 33 nodes are on no cell of the body" \
+            in line, line

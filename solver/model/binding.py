@@ -72,9 +72,13 @@ def bind(scene, store=None):
     if continuum:
         _check_free(scene, data, owned, d)
     loads = []
+    stepped = np.zeros(n, bool)
+    for nodes in owned:
+        stepped[np.asarray(nodes, dtype=np.int64)] = True
     for i, ld in enumerate(scene.loads):
         if ld.group is not None:
             ld = _traction(ld, f"loads[{i}]", data, data.points.shape[1] if continuum else d)
+            _check_carried(ld.group, f"loads[{i}].group", data, stepped)
         else:
             if ld.at is not None and not continuum:
                 fail(f"loads[{i}].at", "a point needs a continuum model (give node)")
@@ -129,6 +133,18 @@ def _traction(ld, path, mesh, space):
         axis = tuple(float(c == ld.component) for c in range(space))
         ld = dataclasses.replace(ld, direction=axis, component=None)
     return ld
+
+
+def _check_carried(name, key, mesh, stepped):
+    """A group load's nodes are all the body's (stepped by a partition): a load
+    on nodes no cell of the body uses would move nothing, in silence."""
+    nodes = mesh.group(name).nodes
+    off = ~stepped[nodes]
+    if off.any():
+        node = int(nodes[off][0])
+        fail(key, f"group {name!r}: {int(off.sum())} of its {nodes.size} nodes are on no cell of "
+             f"the body (node {node} at {mesh.points[node].round(6).tolist()}): a load there "
+             "would move nothing")
 
 
 def _check_continuum(spec, mesh, store):
