@@ -14,7 +14,7 @@ e.g. a loaded patch of the body) pressure-like loads [N/m^2], both along
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -132,8 +132,9 @@ def surface(mesh, group, where, material, wall, sections=()):
     which = [np.full(len(conn), -1) for _, conn, _ in body]
     for i, (name, key, _) in enumerate(sections):
         hits = 0
+        own = shell_cells(mesh, name, key)
         for (family, _, tags), w in zip(body, which):
-            sec = next((t for f, _, t in shell_cells(mesh, name, key) if f is family), None)
+            sec = next((t for f, _, t in own if f is family), None)
             inside = np.isin(tags, sec) if sec is not None else np.zeros(len(tags), bool)
             if (w[inside] >= 0).any():
                 j = int(w[inside][w[inside] >= 0][0])
@@ -143,7 +144,7 @@ def surface(mesh, group, where, material, wall, sections=()):
                                  "thickness")
             w[inside] = i
             hits += int(inside.sum())
-        size = sum(len(t) for _, _, t in shell_cells(mesh, name, key))
+        size = sum(len(t) for _, _, t in own)
         if hits < size:
             raise SceneError(f"{key}: group {name!r} has {size - hits} of its {size} cells outside "
                              f"the shell body {group!r}")
@@ -173,8 +174,7 @@ def build(scene, mesh):
     :class:`~solver.model.continuum.ContinuumArrays`."""
     spec = scene.model
     m = spec.material
-    sections = [(sec.group, f"model.sections[{i}].group",
-                 Wall(m.E, m.nu, sec.thickness, m.drilling, m.membrane, m.rho, m.rotary_inertia))
+    sections = [(sec.group, f"model.sections[{i}].group", replace(m, thickness=sec.thickness))
                 for i, sec in enumerate(spec.sections)]
     cells, mass, inertia = surface(mesh, spec.body, "model.body", m, m, sections)
     pts, n = mesh.points, len(mesh.points)
@@ -194,8 +194,6 @@ class Wall:
     thickness: float
     drilling: float
     membrane: str = "allman"
-    rho: float | None = None                # a shell body's section: its mass data too
-    rotary_inertia: str | None = None
 
 
 class Padded:
