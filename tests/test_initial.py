@@ -146,8 +146,8 @@ def test_moving_start_is_the_same_on_one_and_two_ranks(tmp_path):
 @pytest.mark.parametrize("edit, message", [
     (lambda r: r.update(initial={"motion": [{"group": "right", "velocity": [1, 0]}]},
                         model={**r["model"], "fixed": ["right"]}),
-     "initial.motion[0].velocity: node 1 at [0.32, 0.0] is fixed in x (boundary) but would "
-     "start with velocity 1 there"),
+     "initial.motion[0].velocity: node 1 at [0.32, 0.0] is held in x (model.fixed, "
+     "model.constraints or model.prescribed) but would start with velocity 1 there"),
     (lambda r: r.update(initial={"motion": [{"group": "nope", "velocity": [1, 0]}]}),
      "initial.motion[0].group: mesh has no physical group 'nope'"),
     (lambda r: r.update(initial={"motion": [{"velocity": [1, 0, 0]}]}),

@@ -58,7 +58,8 @@ def _plain(obj):
 NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "none"),
               (("initial", "motion"), []), (("model", "integration"), "full"),
               (("model", "material", "membrane"), "allman"), (("model", "sections"), []),
-              (("loads", "*", "pressure"), False), (("model", "hourglass"), 0.1))
+              (("loads", "*", "pressure"), False), (("model", "hourglass"), 0.1),
+              (("model", "prescribed"), []))
 
 
 def _drop_unset(section, path, unset):

@@ -10,12 +10,14 @@ stability check, and :class:`StaticSolve` stands in for the scheme's step:
    to the fixed DOFs: their Gram matrix's null space) and refused, named,
    before anything is solved;
 2. A = K with the fixed rows and columns made the identity, b = f(time.end)
-   with 0 on them;
+   with 0 on them (a prescribed displacement u_p (model.prescribed) is lifted:
+   b = f - K u_p, u_p on its rows);
 3. a KSP with prefix ``static_`` solves A u = b: LU on one rank (on a BAIJ copy
    for vector DOFs), CG + GAMG with the rigid-body near-null space and rtol
    1e-12 on several; ``-static_ksp_type`` and the other options override;
 4. the partition's u is the solution, v = a = 0, and its external work is
-   1/2 f . u (the loads applied slowly from zero: it equals the strain energy).
+   1/2 f . u (the loads applied slowly from zero: it equals the strain energy;
+   with prescribed displacements 1/2 u . K u, the supports' work included).
 
 The run then records one sample at time.end (the runner drops the t = 0 one).
 :func:`preloaded` solves the whole model so before a dynamic run and gives
@@ -113,6 +115,9 @@ class StaticSolve:
         A.scale(-1.0)
         lo = A.getOwnershipRange()[0]
         self.fixed = np.flatnonzero(part.fixed_dofs[:n])
+        # prescribed displacements are lifted: b = f - K u_p, the solve keeps u_p on its rows
+        self.K = A.duplicate(copy=True) if scene.model.kind == "continuum" and \
+            scene.model.prescribed else None
         A.zeroRowsColumns((lo + self.fixed).astype(P.IntType), diag=1.0)
         ksp = P.KSP().create(part.comm)
         ksp.setOptionsPrefix(PREFIX)
@@ -160,7 +165,14 @@ class StaticSolve:
         part.loads.apply(R, self.t_end)
         f = R[:n]
         f[self.fixed] = 0.0
-        self.b.getArray()[:] = f
+        b = self.b.getArray()
+        b[:] = f
+        if self.K is not None:
+            up = self._lifted(self.t_end)
+            self.K.mult(self.x, self.b)          # (x holds u_p)
+            b *= -1.0
+            b += f
+            b[self.fixed] = up[self.fixed]
         self.ksp.solve(self.b, self.x)
         reason = self.ksp.getConvergedReason()
         if reason < 0:
@@ -171,13 +183,27 @@ class StaticSolve:
         part.U[:n] = self.x.getArray()
         part.V[:] = 0.0
         part.A[:] = 0.0
-        part.work = 0.5 * float(np.dot(f, part.U[:n]))
+        if self.K is None:
+            part.work = 0.5 * float(np.dot(f, part.U[:n]))
+        else:                                     # the loads' and the supports' work: 1/2 u.K u
+            self.K.mult(self.x, self.b)
+            part.work = 0.5 * float(np.dot(self.b.getArray(), part.U[:n]))    # (owned rows)
         self.say(f"[solver]   static solve: {self.ksp.getIterationNumber()} KSP iteration(s), "
                  f"{self._reasons.get(reason, reason)}")
 
+    def _lifted(self, t: float) -> np.ndarray:
+        """x = u_p: the prescribed displacements at t on their owned rows, 0 elsewhere."""
+        n, motion = self.part.n_own, self.part.motion
+        up = self.x.getArray()
+        up[:] = 0.0
+        for at, rows in (motion.groups if motion is not None else ()):
+            up[rows[rows < n]] = at(t)[0]
+        return up
+
     def destroy(self):
-        for obj in (self.ksp, self.A, self.b, self.x):
-            obj.destroy()
+        for obj in (self.ksp, self.A, self.b, self.x, self.K):
+            if obj is not None:
+                obj.destroy()
 
 
 def one_sample(result):

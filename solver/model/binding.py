@@ -75,6 +75,19 @@ def bind(scene, store=None):
     stepped = np.zeros(n, bool)
     for nodes in owned:
         stepped[np.asarray(nodes, dtype=np.int64)] = True
+    for i, motion in enumerate(scene.model.prescribed if continuum else ()):
+        _check_carried(motion.group, f"model.prescribed[{i}].group", data, stepped,
+                       "a motion there would drive nothing")
+    if continuum and scene.model.prescribed:
+        if scene.coupling.scheme == "conserving":
+            fail("model.prescribed", "the conserving scheme builds its interface law from "
+                 "responses with the loads off, which a prescribed motion would enter: use "
+                 "coupling.scheme overlap or staggered")
+        levelled = [p.name for p in scene.partitions if p.integrator == "levels"]
+        if levelled:
+            fail("model.prescribed", f"partition '{levelled[0]}' steps by element levels "
+                 "(partitions: auto), which set no prescribed motion yet: give the partitions "
+                 "(integrator explicit, implicit or verlet)")
     for i, ld in enumerate(scene.loads):
         if ld.group is not None:
             ld = _traction(ld, f"loads[{i}]", data, data.points.shape[1] if continuum else d)
@@ -135,7 +148,7 @@ def _traction(ld, path, mesh, space):
     return ld
 
 
-def _check_carried(name, key, mesh, stepped):
+def _check_carried(name, key, mesh, stepped, what="a load there would move nothing"):
     """A group load's nodes are all the body's (stepped by a partition): a load
     on nodes no cell of the body uses would move nothing, in silence."""
     nodes = mesh.group(name).nodes
@@ -143,8 +156,7 @@ def _check_carried(name, key, mesh, stepped):
     if off.any():
         node = int(nodes[off][0])
         fail(key, f"group {name!r}: {int(off.sum())} of its {nodes.size} nodes are on no cell of "
-             f"the body (node {node} at {mesh.points[node].round(6).tolist()}): a load there "
-             "would move nothing")
+             f"the body (node {node} at {mesh.points[node].round(6).tolist()}): {what}")
 
 
 def _check_continuum(spec, mesh, store):
@@ -172,12 +184,13 @@ def _check_continuum(spec, mesh, store):
         shell_cells(mesh, part.group, f"model.shells[{i}].group")
         _check_wall(mesh, part.group, part.thickness, f"model.shells[{i}].thickness")
     names = DOF_NAMES if kind == "shell" or spec.shells else DOF_NAMES[:mesh.dim]
-    for i, c in enumerate(spec.constraints):
-        mesh.group(c.group, f"model.constraints[{i}].group")
-        bad = [d for d in c.dofs if d not in names]
-        if bad:
-            fail(f"model.constraints[{i}].dofs", f"{bad[0]} does not exist: a {kind} model's "
-                 f"nodes have {', '.join(names)}")
+    for where, entries in (("constraints", spec.constraints), ("prescribed", spec.prescribed)):
+        for i, c in enumerate(entries):
+            mesh.group(c.group, f"model.{where}[{i}].group")
+            bad = [d for d in c.dofs if d not in names]
+            if bad:
+                fail(f"model.{where}[{i}].dofs", f"{bad[0]} does not exist: a {kind} model's "
+                     f"nodes have {', '.join(names)}")
     if spec.lattice is not None and spec.lattice.transition:
         return store.transition(spec, mesh)
     return None
@@ -217,8 +230,8 @@ def _check_free(scene, data, owned, d):
         if nodes.size and not free[nodes[nodes < n_mesh]].any() and not (nodes >= n_mesh).any():
             part = scene.partitions[p]
             fail(f"partitions[{p}]", f"partition '{part.name}' has no free DOF: every DOF of its "
-                 f"{nodes.size} nodes is held by model.fixed or model.constraints, so nothing "
-                 "would move (free some, or leave those nodes out)")
+                 f"{nodes.size} nodes is held by model.fixed, model.constraints or "
+                 "model.prescribed, so nothing would move (free some, or leave those nodes out)")
 
 
 def _used(data, body, zone, n, shells=()):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.model import prescribed
 from solver.model.elements import CELLS
 from solver.model.loads import PointLoad, load_function
 from solver.model.pressure import nodal_vectors
@@ -53,8 +54,10 @@ def facet_forces(mesh, group_name, where):
 
 
 def fixed_dofs(scene, mesh, n_nodes, dof):
-    """[n_nodes * dof] bool: every DOF of ``model.fixed`` groups, and the chosen
-    DOFs (ux uy uz rx ry rz) of ``model.constraints``."""
+    """[n_nodes * dof] bool: every DOF of ``model.fixed`` groups, the chosen
+    DOFs (ux uy uz rx ry rz) of ``model.constraints`` and those of
+    ``model.prescribed`` (held out of the solve, moved as given:
+    :mod:`solver.model.prescribed`)."""
     fixed = np.zeros(n_nodes * dof, bool)
     for name in scene.model.fixed:
         nodes = mesh.group(name, "model.fixed").nodes
@@ -63,6 +66,8 @@ def fixed_dofs(scene, mesh, n_nodes, dof):
         nodes = mesh.group(c.group, f"model.constraints[{i}].group").nodes
         comps = np.array([DOF_NAMES.index(d) for d in c.dofs])
         fixed[(nodes[:, None] * dof + comps).ravel()] = True
+    if scene.model.prescribed:
+        fixed |= prescribed.held(scene, mesh, n_nodes, dof, fixed)
     return fixed
 
 

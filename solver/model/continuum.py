@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from solver.laws import CONTACT_LAWS, ContactSettings
-from solver.model import data as model_data, heat, initial, shell_model
+from solver.model import data as model_data, heat, initial, prescribed, shell_model
 from solver.model.cell_blocks import group_matrices, kept, nodal
 from solver.model.boundary import fixed_dofs, load_list
 from solver.model.dofmap import DofMap
@@ -50,6 +50,7 @@ class ContinuumArrays:
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
     zone: object = None            # the Transition (model.lattice.transition), else None
     gravity: np.ndarray | None = None   # body acceleration [dim] (scene key gravity), or None
+    motions: tuple = ()            # prescribed motions (solver.model.prescribed.Motion)
 
     kind: ClassVar[str] = "continuum"
 
@@ -266,6 +267,7 @@ def build(scene, reach: int = 1, store=None) -> ContinuumArrays:
     store = store if store is not None else model_data.ModelData()
     mesh = store.read(scene.model)
     arrays = initial.apply(_build(scene, mesh, reach, store), scene, mesh)
+    arrays = prescribed.apply(arrays, scene, mesh)
     return dataclasses.replace(arrays, notes=mesh.notes) if mesh.notes else arrays
 
 

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from solver.model import initial, layout as overlap
+from solver.model import initial, layout as overlap, prescribed
 
 SHOWN = 3                # elements listed per partition
 CHUNK = 32768            # cells measured at a time (bounds the temporaries)
@@ -259,7 +259,7 @@ def lines(scene, mdl) -> list[str]:
         out.append(mat)
     if mdl.shells is not None:
         out.append(f"shell elements: {mdl.shells.elements}")
-    out += initial.describe(mdl)
+    out += initial.describe(mdl) + prescribed.describe(mdl)
     if scene.analysis == "static":
         return out                   # (no step to estimate)
     out += partition_lines(scene, mdl, overlap.owner_map(mdl.n_nodes, scene.partitions))

@@ -69,9 +69,10 @@ def _motion(arrays, motion, mesh, dim) -> dict:
             node, c = (int(x[0]) for x in dm.node_of(np.array([dof])))
             raise SceneError(
                 f"initial.motion[{setter[name][dof]}].{name}: node {node} at "
-                f"{arrays.points[node].tolist()} is fixed in {AXES[c]} (boundary) but would start "
-                f"with {name} {values[dof]:g} there ({bad.size} such DOFs); give 0 on fixed "
-                "axes or leave those nodes out of the group")
+                f"{arrays.points[node].tolist()} is held in {AXES[c]} (model.fixed, "
+                f"model.constraints or model.prescribed) but would start with {name} "
+                f"{values[dof]:g} there ({bad.size} such DOFs); give 0 on held axes or leave "
+                "those nodes out of the group")
         values[fixed] = 0.0
     return {"v0": state["velocity"], "u0": state["displacement"]}
 

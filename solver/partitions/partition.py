@@ -28,6 +28,7 @@ A partition is composed of small parts (docs/dev/partition.md):
   damping  :class:`~solver.partitions.damping.Damping`   Rayleigh terms (None when undamped)
   audit    :class:`~solver.partitions.audit.EnergyAudit` what damping and dashpots dissipate
   thermal  :class:`~solver.partitions.thermal.ThermalForce` (None without thermal expansion)
+  motion   :class:`~solver.partitions.motion.Motions` (None without prescribed motion)
   force    :mod:`solver.partitions.force`                internal force, energy, tangent
 The names other modules use (``part.U``, ``part.state``, ``part.work``,
 ``part.dissipated``, ``part.mass``, ...) are properties on these parts.
@@ -49,6 +50,7 @@ from solver.partitions.audit import EnergyAudit
 from solver.partitions.damping import Damping
 from solver.partitions.loads import Loads
 from solver.partitions.mass import LumpedMass
+from solver.partitions.motion import Motions
 from solver.partitions.state import State
 from solver.petscutil import vec_on
 from solver.partitions.distribute import whole
@@ -146,6 +148,8 @@ class Partition:
             self.corrected = tuple(owned)
             self._views += owned
         self.loads = Loads.of(model, layout, self.starts, self.mass)
+        self.motion = Motions(getattr(model, "motions", ()), self.held_dofs, self.n_own,
+                              self.mass, self.vectors) or None
         # r = f - K u - beta K v - alpha M v: its terms and work Vecs only when damped
         self.damping = Damping.of(damping, self.mass, comm)
         self.built = []                         # what was built, for the log (subclasses add)
@@ -216,7 +220,11 @@ class Partition:
     def residual(self, t, u, v):
         """r = f(t) - K u - C v, C = alpha M + beta K (undamped partitions ignore v).
         A nonlinear force is evaluated at u (at time t, when bonds break), its
-        stiffness-proportional damping with the tangent at rest."""
+        stiffness-proportional damping with the tangent at rest.  Prescribed
+        rows of u and v take their motion at t first."""
+        motion = self.motion
+        if motion is not None:
+            motion.impose(u, v, t)
         if not self.force.linear:
             self.force.now = t
             self.internal_force(u, self.r)
@@ -231,6 +239,8 @@ class Partition:
         self.loads.apply(self.R, t)
         if self.thermal is not None:
             self.vectors.R += self.thermal.force
+        if motion is not None:
+            motion.capture()
 
     def set_temperature(self, T_node, count=True):
         """Model-node temperatures (``heat``): thermal forces, bond rest lengths and
@@ -258,24 +268,43 @@ class Partition:
         self.residual(0.0, self.u, self.v)
         self.a.pointwiseMult(self.r, self.minv)
         self.loads.remember(self.U)
+        if self.motion is not None:
+            self.motion.remember(self.U, self.V)
         self.stepping = True
 
     def load_memory(self) -> dict:
-        """{load key: last load value} of the owned load groups (checkpoint state)."""
-        return self.loads.memory()
+        """{load key: last load value} of the owned load groups, and the last
+        residual of the owned prescribed DOFs (checkpoint state)."""
+        memory = self.loads.memory()
+        if self.motion is not None:
+            memory.update(self.motion.memory())
+        return memory
 
     def restore_load_memory(self, values: dict):
         self.loads.restore(values, self.U)
+        if self.motion is not None:
+            self.motion.restore(values, self.U, self.V)
+
+    def track_work(self):
+        """External work += the owned loads' and prescribed motions' since the last call."""
+        self.loads.track(self.U)
+        if self.motion is not None:
+            self.loads.work += self.motion.track(self.U, self.V)
 
     def after_step(self):
         """Bookkeeping after every completed step: step count and external work."""
         self.steps += 1
-        self.loads.track(self.U)
+        self.track_work()
 
     def advance(self, t0: float):
         """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
         step, h = self.step_once, self.dt
-        if self.loads.owned:
+        if self.motion is not None:
+            track = self.track_work
+            for k in range(1, self.n_sub + 1):
+                step(t0 + k * h)
+                track()
+        elif self.loads.owned:
             track, U = self.loads.track, self.U
             for k in range(1, self.n_sub + 1):
                 step(t0 + k * h)

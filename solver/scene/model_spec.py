@@ -10,6 +10,7 @@ from typing import Literal
 
 
 from solver.laws import BOND_GEOMETRIES, CONTACT_LAWS
+from solver.scene import time_function
 from solver.scene.schema import convert, fail, key, shown, tagged
 
 GROUND = -1  # node id of the fixed end of a spring
@@ -179,6 +180,39 @@ class Constraint:
             fail(f"{path}.dofs", f"{list(self.dofs)}: each DOF is one of {', '.join(DOF_NAMES)}")
 
 
+@dataclass(frozen=True)
+class Prescribed:
+    group: str = key("physical group (node set) whose chosen DOFs move as given")
+    dofs: tuple[str, ...] = key("DOFs driven: ux, uy, uz (translations), rx, ry, rz (shell "
+                                "rotations); each takes the same motion")
+    quantity: Literal["velocity", "displacement"] = key(
+        "what the time function gives: velocity [m/s] (the displacement is its integral from "
+        "t = 0, so the DOFs start where they are) or displacement [m] (the velocity is its "
+        "derivative)")
+    kind: Literal["sine", "half_sine", "rectangular", "tabulated"] = key(
+        "time function, as loads[].kind: sine A sin(omega t); half_sine A sin(pi (t-start)/"
+        "duration) on [start, start+duration]; rectangular A on [start, start+duration) "
+        "(velocity only); tabulated piecewise linear through table, end values held "
+        "(a constant velocity V: table [[0, V], [1, V]])")
+    amplitude: float = key("A [m/s or m] (sine, half_sine, rectangular)", 1.0)
+    omega: float | None = key("angular frequency [rad/s] (sine)", None, positive=True)
+    duration: float | None = key("pulse length [s] (half_sine, rectangular)", None, positive=True)
+    start: float = key("pulse start [s] (half_sine, rectangular)", 0.0, nonnegative=True)
+    table: tuple[tuple[float, ...], ...] | None = key(
+        "[[t, value], ...] with increasing t (tabulated)", None)
+
+    def validate(self, path):
+        bad = [d for d in self.dofs if d not in DOF_NAMES]
+        if bad or not self.dofs:
+            fail(f"{path}.dofs", f"{list(self.dofs)}: each DOF is one of {', '.join(DOF_NAMES)}")
+        if len(set(self.dofs)) != len(self.dofs):
+            fail(f"{path}.dofs", f"{list(self.dofs)} names a DOF twice")
+        time_function.check(self, path, "motion")
+        if self.quantity == "displacement" and self.kind == "rectangular":
+            fail(f"{path}.kind", "a rectangular displacement jumps (its velocity would be "
+                 "infinite): prescribe quantity velocity, or a tabulated displacement ramp")
+
+
 def registered(registry):
     """A ``parse`` hook: the value is a name of ``registry`` (solver.laws)."""
     def parse_name(value, path):
@@ -297,6 +331,11 @@ class ContinuumModel:
     constraints: tuple[Constraint, ...] = key("chosen DOFs held at zero on physical groups "
                                               "(symmetry planes, supports); with model.fixed "
                                               "they must leave each partition a free DOF", ())
+    prescribed: tuple[Prescribed, ...] = key(
+        "DOFs of physical groups moved with a given velocity or displacement in time (a "
+        "grip, a shaker, an imposed settlement): held out of the solve like model.fixed, "
+        "their motion set each step; the reaction's work counts as external work "
+        "(docs/guide/prescribed.md)", ())
     shells: tuple[ShellPart, ...] = key(
         "solid bodies: shell surfaces (triangles and/or quadrilaterals, the body's material) "
         "sharing nodes with the "

@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass
 from typing import Literal
 
-from solver.scene import expression, registry
+from solver.scene import expression, registry, time_function
 from solver.scene.schema import fail, key, shown
 from solver.scene.heat_spec import HeatSpec
 from solver.scene.model_spec import ContinuumModel, NetworkModel, parse_model, parse_node_set
@@ -209,25 +209,7 @@ class Load:
         if self.direction is not None and self.group is None:
             fail(f"{path}.direction", "is for group loads (tractions); a node or at load acts "
                  "on its DOF component")
-        if self.kind == "tabulated" and self.amplitude != 1.0:
-            fail(f"{path}.amplitude", "not used by a tabulated load (its table holds the values)")
-        if self.kind in ("sine", "tabulated") and self.start != 0.0:
-            fail(f"{path}.start", f"not used by a {self.kind} load (it starts at t = 0)")
-        need = {"sine": ("omega",), "half_sine": ("duration",), "rectangular": ("duration",),
-                "tabulated": ("table",)}[self.kind]
-        for name in ("omega", "duration", "table"):
-            given = getattr(self, name) is not None
-            if name in need and not given:
-                fail(f"{path}.{name}", f"required for a {self.kind} load")
-            if name not in need and given:
-                fail(f"{path}.{name}", f"not used by a {self.kind} load")
-        if self.kind == "tabulated":
-            rows = self.table
-            if len(rows) < 2 or any(len(r) != 2 for r in rows):
-                fail(f"{path}.table", "needs at least two [t, value] rows")
-            ts = [r[0] for r in rows]
-            if any(b <= a for a, b in zip(ts, ts[1:])):
-                fail(f"{path}.table", "times must increase strictly")
+        time_function.check(self, path, "load")
 
 
 @dataclass(frozen=True)
