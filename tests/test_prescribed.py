@@ -201,6 +201,7 @@ BAD = [
     (["model.prescribed.0.table=null"], "model.prescribed[0].table: required for a tabulated motion"),
     (["model.prescribed.0.dofs=[ux, ux]"], "model.prescribed[0].dofs: ['ux', 'ux'] names a DOF twice"),
     (["initial.motion=[{group: left, velocity: [2.0, 0]}]"], "initial.motion[0].velocity: node"),
+    (["coupling.scheme=conserving"], "model.prescribed: the conserving scheme builds"),
     (["partitions=auto", "time.dt=auto"], "model.prescribed: partition 'auto' steps by element levels"),
 ]
 

@@ -202,7 +202,8 @@ class Conserving(OwnSides):
     about = ("energy-conserving multi-time-step coupling (docs/conserving.md): the fine "
              "side follows the coarse side's straight displacement path on a shared "
              "interface, and a discrete energy is conserved to round-off")
-    supports = ("network and continuum models without heat and with linear bonds; exactly "
+    supports = ("network and continuum models without heat or prescribed motion and with "
+                "linear bonds; exactly "
                 "two partitions on a node-matching interface: fem+implicit (average "
                 "acceleration: beta 0.25, gamma 0.5) with the largest ratio and fem+explicit "
                 "(central difference: beta 0, gamma 0.5) or dem+verlet; any number of ranks "
@@ -217,6 +218,10 @@ class Conserving(OwnSides):
         if scene.heat is not None:
             fail("coupling.scheme", "conserving couples linear partitions without heat; "
                  "this scene has heat (use overlap or staggered)")
+        if scene.model.kind == "continuum" and scene.model.prescribed:
+            fail("model.prescribed", "the conserving scheme builds its interface law from "
+                 "responses with the loads off, which a prescribed motion would enter (use "
+                 "overlap or staggered)")
         lat = getattr(scene.model, "lattice", None)
         if lat is not None and BOND_GEOMETRIES[lat.geometry].current:
             fail("coupling.scheme", f"conserving couples linear partitions; "

@@ -52,6 +52,7 @@ class Model:
     heat: ClassVar[object] = None
     zone: ClassVar[object] = None
     gravity: ClassVar[None] = None
+    motions: ClassVar[tuple] = ()
 
     @property
     def n_nodes(self) -> int:

@@ -79,10 +79,6 @@ def bind(scene, store=None):
         _check_carried(motion.group, f"model.prescribed[{i}].group", data, stepped,
                        "a motion there would drive nothing")
     if continuum and scene.model.prescribed:
-        if scene.coupling.scheme == "conserving":
-            fail("model.prescribed", "the conserving scheme builds its interface law from "
-                 "responses with the loads off, which a prescribed motion would enter: use "
-                 "coupling.scheme overlap or staggered")
         levelled = [p.name for p in scene.partitions if p.integrator == "levels"]
         if levelled:
             fail("model.prescribed", f"partition '{levelled[0]}' steps by element levels "

@@ -82,6 +82,7 @@ class ModelInterface(Protocol):
     heat: Conduction | None
     zone: Transition | None
     gravity: np.ndarray | None   # body acceleration [space] on every node's mass, or None
+    motions: tuple               # prescribed motions (solver.model.prescribed.Motion), or ()
 
     @property
     def n_nodes(self) -> int: ...

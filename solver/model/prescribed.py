@@ -105,4 +105,4 @@ def apply(arrays, scene, mesh):
 
 def describe(model) -> list[str]:
     """Log lines of the model's prescribed motions."""
-    return [m.describe() for m in getattr(model, "motions", ())]
+    return [m.describe() for m in model.motions]

@@ -148,7 +148,7 @@ class Partition:
             self.corrected = tuple(owned)
             self._views += owned
         self.loads = Loads.of(model, layout, self.starts, self.mass)
-        self.motion = Motions(getattr(model, "motions", ()), self.held_dofs, self.n_own,
+        self.motion = Motions(model.motions, self.held_dofs, self.n_own,
                               self.mass, self.vectors) or None
         # r = f - K u - beta K v - alpha M v: its terms and work Vecs only when damped
         self.damping = Damping.of(damping, self.mass, comm)
