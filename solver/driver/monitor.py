@@ -82,7 +82,10 @@ class Probes(Observer):
 
     def _attrs(self, probe, part) -> dict:
         attrs = {"node": probe.node, "component": probe.component, "partition": part.name}
-        if self.stress is not None:
+        if self.stress is not None and self.stress.is_shell(probe.name):
+            attrs["stress"] = ("von Mises [Pa] of the larger face (N / t -+ 6 M / t^2), "
+                               "average of the node's shell cells")
+        elif self.stress is not None:
             axis = "xyz"[probe.component]
             attrs["stress"] = (f"sigma_{axis}{axis} [Pa]: " +
                                ("bond (virial) stress" if part.method == "dem" else

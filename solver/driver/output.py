@@ -11,7 +11,8 @@ Layout::
                        wall_time_<partition>
     /partitions/<name> attrs: method, integrator, ratio, dt, steps, wall_time,
                        n_owned, n_external, layers, omega_max, critical_step
-    /probes/<name>/t, displacement, velocity [, stress (continua), reference_displacement,
+    /probes/<name>/t, displacement, velocity [, stress (continua; von Mises at shell nodes),
+                    reference_displacement,
                     reference_stress (bar_wave)]
     /broken_bonds   [n, 6 + dim]: t, midpoint, strain, critical strain, temperature (NaN
                     without heat), node i, node j (breakable bonds)

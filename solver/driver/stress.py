@@ -10,6 +10,12 @@ PETSc whatever the rank layout.
 - FE node: the average over the node's FE cells of the cell-averaged stress
   (D B u averaged over the cell's quadrature points), the stress the field
   output writes per cell.
+- Shell node (a node of a shell cell, on a shell body or on shells joined to
+  a solid): the von Mises stress of the larger face, each shell cell's
+  sigma = N / t -+ 6 M / t^2 at its centre in its own frame (the field
+  output's von_mises), averaged over the node's shell cells: the probe's
+  rows are the cells' face stresses (xx, yy, xy at the top and the bottom,
+  linear in u), von Mises is taken after the MatMult.
 - Particle (dem partitions): the bond (virial, Love-Weber) stress
   sigma = 1/(2 V) sum_j f_ij (x) r_ij over its bonds, with V = m / rho its
   volume (thickness included in plane stress), f_ij = k (n . (u_j - u_i)) n the
@@ -33,9 +39,11 @@ def fe_row(mdl, node: int, c: int, thermal=None):
     ``thermal`` (a list) receives (nodes, weights) with sigma_th = -alpha sum w dT
     (each cell's D eps_th at its mean temperature)."""
     D = mdl.material_D
-    dim = mdl.dof
+    dim = mdl.points.shape[1]
     nodes, coefs, n_cells = [], [], 0
     for fam, conn, _ in mdl.cells:
+        if fam.rotations or fam.meshio is None:         # shells, ties: not solid cells
+            continue
         hit = np.flatnonzero((conn == node).any(axis=1))
         if not hit.size:
             continue
@@ -52,6 +60,33 @@ def fe_row(mdl, node: int, c: int, thermal=None):
         k = np.concatenate(nodes).size
         thermal.append((np.concatenate(nodes), np.full(k, (D @ m)[c] / k)))
     return np.concatenate(nodes), np.concatenate(coefs) / n_cells
+
+
+def shell_rows(mdl, node: int):
+    """[(nodes, coefficients [6, 6 k])] of each shell cell at ``node``: the rows
+    of its face stresses (top xx, yy, xy, bottom xx, yy, xy; top = +z of the
+    cell frame, sigma = N / t - 6 M / t^2 as the fields' stress_top) over its
+    nodes' six DOFs; [] when no shell cell has the node."""
+    out = []
+    for fam, conn, Ke in mdl.cells:
+        if not fam.rotations:
+            continue
+        for c in np.flatnonzero((conn == node).any(axis=1)):
+            n = 6 * conn.shape[1]
+            one = type(Ke)(Ke.points, conn[[c] * n], Ke.material)   # the cell n times
+            N, M, _ = one.resultants(np.eye(n))                       # [n, 3]: per unit DOF
+            t = Ke.material.thickness
+            out.append((conn[c], np.concatenate([(N / t - 6 * M / t ** 2).T,
+                                                 (N / t + 6 * M / t ** 2).T])))
+    return out
+
+
+def shell_mises(rows: np.ndarray) -> float:
+    """The mean over cells of the larger face's von Mises stress, from the
+    cells' face-stress rows [6 n_cells] (:func:`shell_rows`)."""
+    s = rows.reshape(-1, 2, 3)
+    vm = np.sqrt(s[..., 0] ** 2 - s[..., 0] * s[..., 1] + s[..., 1] ** 2 + 3 * s[..., 2] ** 2)
+    return float(vm.max(axis=1).mean())
 
 
 def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True, thermal=None):
@@ -98,6 +133,7 @@ class StressProbes:
         self.ops, self.current = [], []
         self.heating = None                  # set by the runner with heat: thermal strain
         self.thermal = {}                    # probe -> (nodes, weights): sigma_th
+        self.shell_names = set()             # probes at shell nodes: von Mises
         rho = scene.model.material.rho
         dim = mdl.dof
         for part in parts:
@@ -108,10 +144,23 @@ class StressProbes:
                 loc = part.layout.local(np.array([probe.node]))[0]
                 if not 0 <= loc < part.layout.n_owned:
                     continue
+                shell = shell_rows(mdl, probe.node) if mdl.shells is not None else []
+                if shell:                # face stresses: von Mises after the MatMult
+                    first = len(entries)
+                    for nodes, coef in shell:
+                        cols = (part.dist.number[np.asarray(nodes)][:, None] * dim +
+                                np.arange(dim)).ravel()
+                        entries += [(cols, row) for row in coef]
+                    names.append((probe.name, slice(first, len(entries))))
+                    self.shell_names.add(probe.name)
+                    continue
                 th = []
                 nodes, coef = (bond_row(mdl, probe.node, probe.component, rho, not nonlinear, th)
                                if part.method == "dem" else
                                fe_row(mdl, probe.node, probe.component, th))
+                coef = np.asarray(coef, dtype=float)
+                if coef.shape[1] < dim:          # solid cells of a model with shells: 6 DOFs
+                    coef = np.pad(coef, ((0, 0), (0, dim - coef.shape[1])))
                 if th:
                     self.thermal[probe.name] = (np.concatenate([a for a, _ in th]),
                                                 np.concatenate([w for _, w in th]))
@@ -120,14 +169,17 @@ class StressProbes:
                     current.append((probe.name, loc, bonds, probe.component,
                                     mdl.mass[probe.node] / rho))
                 cols = (part.dist.number[np.asarray(nodes)][:, None] * dim + np.arange(dim)).ravel()
-                entries.append((cols, np.asarray(coef, dtype=float).ravel()))
-                names.append(probe.name)
+                entries.append((cols, coef.ravel()))
+                names.append((probe.name, len(entries) - 1))
             S = probe_rows(part, entries, dim)
-            out = np.zeros(len(names))
-            self.ops.append((S, part.u, vec_on(out, part.comm), out,
-                             [(name, i) for i, name in enumerate(names)]))
+            out = np.zeros(len(entries))
+            self.ops.append((S, part.u, vec_on(out, part.comm), out, names))
             if nonlinear:               # every piece: the ghost refresh is collective
                 self.current.append((part.force, part.u, current))
+
+    def is_shell(self, name: str) -> bool:
+        """Probe ``name`` records a shell's von Mises stress (not sigma_cc)."""
+        return name in self.shell_names
 
     def values(self) -> dict:
         """{probe name: sigma} of this rank's probes (collective).  The lattice
@@ -138,7 +190,7 @@ class StressProbes:
         for S, u, out_vec, out, rows in self.ops:
             S.mult(u, out_vec)
             for name, i in rows:
-                got[name] = float(out[i])
+                got[name] = shell_mises(out[i]) if isinstance(i, slice) else float(out[i])
                 if heat is not None and name in self.thermal:     # minus D eps_th
                     nodes, w = self.thermal[name]
                     dT = heat.T_node[nodes] - heat.spec.initial
@@ -186,7 +238,7 @@ def probe_rows(part, entries, dim):
 
 def build(scene, mdl, parts):
     """StressProbes when the model is a continuum with probes, else None."""
-    if not scene.probes or mdl.kind != "continuum" or mdl.shells is not None:
-        return None                   # (shells: no stress probes)
+    if not scene.probes or mdl.kind != "continuum":
+        return None
     init()
     return StressProbes(scene, mdl, parts)
