@@ -107,8 +107,8 @@ class StaticSolve:
         if free:
             raise SceneError(
                 f"{key}: static: the model is free to move ({len(free)} rigid-body "
-                f"mode(s) no fixed DOF holds: {'; '.join(free)}); fix them with model.fixed or "
-                "model.constraints")
+                f"mode(s) no fixed DOF holds: {'; '.join(free)}); fix them with model.fixed, "
+                "model.constraints or model.prescribed")
         P = init()
         n = part.n_own
         A = part.Kneg.duplicate(copy=True)

@@ -187,6 +187,17 @@ def _check_continuum(spec, mesh, store):
             if bad:
                 fail(f"model.{where}[{i}].dofs", f"{bad[0]} does not exist: a {kind} model's "
                      f"nodes have {', '.join(names)}")
+    turned = [(i, m) for i, m in enumerate(spec.prescribed) if set(m.dofs) & set(DOF_NAMES[3:])]
+    if spec.shells and turned:                       # a solid-only node has no rotation to drive
+        on_shell = np.unique(np.concatenate([shell_nodes(mesh, p.group) for p in spec.shells]))
+        for i, m in turned:
+            nodes = mesh.group(m.group).nodes
+            off = nodes[~np.isin(nodes, on_shell)]
+            if off.size:
+                node = int(off[0])
+                fail(f"model.prescribed[{i}].dofs", f"{[d for d in m.dofs if d[0] == 'r']}: "
+                     f"node {node} at {mesh.points[node].round(6).tolist()} is a solid node "
+                     f"({off.size} in group {m.group!r}): only shell nodes rotate")
     if spec.lattice is not None and spec.lattice.transition:
         return store.transition(spec, mesh)
     return None

@@ -35,6 +35,12 @@ class Integrator:
     def mass_damping_factor(self, h: float, alpha: float) -> float:
         return 1.0
 
+    def reaction_shift(self, h: float, beta: float) -> float:
+        """c such that the residual at the step's final state is the one the step
+        evaluated plus c (-K a') on rows held at a' = 0 (the prescribed rows:
+        :mod:`solver.partitions.motion`); ``beta``: the Rayleigh stiffness term."""
+        return 0.0
+
 
 @dataclass(frozen=True)
 class Newmark(Integrator):
@@ -73,6 +79,10 @@ class Newmark(Integrator):
         if 2 * self.beta >= self.gamma >= 0.5:
             return float("inf")
         return 1.0 / (self.gamma / 2 - self.beta) ** 0.5
+
+    def reaction_shift(self, h: float, beta: float) -> float:
+        """r is evaluated at u~, v~; the corrector adds beta h^2 a' and gamma h a'."""
+        return self.beta * h * h + self.gamma * h * beta
 
     def describe(self) -> str:
         lim = self.critical_omega_h()
@@ -162,6 +172,10 @@ class VelocityVerlet(Integrator):
 
     def critical_omega_h(self) -> float:
         return 2.0
+
+    def reaction_shift(self, h: float, beta: float) -> float:
+        """r is evaluated at the final u and the half-step v; v' adds h/2 a'."""
+        return 0.5 * h * beta
 
     def describe(self) -> str:
         return "velocity Verlet, stable for omega*h < 2"

@@ -10,7 +10,9 @@ v = v~ + gamma h a (or Verlet's closing half kick) leaves them on the
 prescribed path: every integrator ends each step exactly on it.
 
 The reaction a support applies, F = m a - r (r = f - K u - C v on the
-prescribed rows), does the work W = sum 1/2 (r_n + r_n+1) . -(u_n+1 - u_n)
+prescribed rows at the step's final state: a Newmark step evaluates r at its
+predictor, r + (beta h^2 + gamma h beta_R)(-K a') is the final one, one
+MatMult; central difference undamped needs none), does the work W = sum 1/2 (r_n + r_n+1) . -(u_n+1 - u_n)
 + 1/2 m (v_n+1^2 - v_n^2) over the owned prescribed DOFs (trapezoidal in the
 elastic part, exact in the inertial part); it is external work, so the energy
 balance closes.  A checkpoint keeps the last r of each owned DOF (load memory
@@ -75,9 +77,13 @@ class Motions:
         self.u_prev[:] = U[self.own]
         self.v_prev[:] = V[self.own]
 
-    def track(self, U, V) -> float:
-        """The reaction's work since the last call (then remember)."""
+    def track(self, U, V, shift: float = 0.0, ka=None) -> float:
+        """The reaction's work since the last call (then remember); ``shift``,
+        ``ka``: the residual evaluated before the corrector is moved to the
+        step's final state, r + shift (-K a')."""
         r, u, v = self.r_now, U[self.own], V[self.own]
+        if shift:
+            r = r + shift * ka[self.own]
         w = -0.5 * float(np.dot(self.r_prev + r, u - self.u_prev)) + \
             0.5 * float(np.dot(self.m, v * v - self.v_prev * self.v_prev))
         self.r_prev[:], self.u_prev[:], self.v_prev[:] = r, u, v

@@ -150,6 +150,13 @@ class Partition:
         self.loads = Loads.of(model, layout, self.starts, self.mass)
         self.motion = Motions(model.motions, self.held_dofs, self.n_own,
                               self.mass, self.vectors) or None
+        moving = self.motion is not None           # on any piece of the partition:
+        self._moving = bool(comm.allreduce(int(moving))) if comm.size > 1 else moving
+        # the prescribed rows' reaction at the step's final state: r + c (-K a')
+        # (one MatMult per step, collective; none for central difference undamped)
+        self._shift = self.integrator.reaction_shift(
+            self.dt, damping.beta if damped else 0.0) if self._moving else 0.0
+        self._ka = self.a.duplicate() if self._shift else None
         # r = f - K u - beta K v - alpha M v: its terms and work Vecs only when damped
         self.damping = Damping.of(damping, self.mass, comm)
         self.built = []                         # what was built, for the log (subclasses add)
@@ -286,10 +293,15 @@ class Partition:
             self.motion.restore(values, self.U, self.V)
 
     def track_work(self):
-        """External work += the owned loads' and prescribed motions' since the last call."""
+        """External work += the owned loads' and prescribed motions' since the last
+        call (collective where a piece of the partition has prescribed motion)."""
         self.loads.track(self.U)
+        ka = None
+        if self._shift:
+            self.force.tangent().mult(self.a, self._ka)          # -K a'
+            ka = self._ka.getArray(readonly=True)
         if self.motion is not None:
-            self.loads.work += self.motion.track(self.U, self.V)
+            self.loads.work += self.motion.track(self.U, self.V, self._shift, ka)
 
     def after_step(self):
         """Bookkeeping after every completed step: step count and external work."""
@@ -299,7 +311,7 @@ class Partition:
     def advance(self, t0: float):
         """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
         step, h = self.step_once, self.dt
-        if self.motion is not None:
+        if self._moving:
             track = self.track_work
             for k in range(1, self.n_sub + 1):
                 step(t0 + k * h)
@@ -340,6 +352,8 @@ class Partition:
             self.thermal.destroy()
         for vec in self._views:
             vec.destroy()
+        if self._ka is not None:
+            self._ka.destroy()
         if self.damping:
             self.damping.destroy()
 
