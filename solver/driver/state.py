@@ -59,7 +59,8 @@ NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "
               (("initial", "motion"), []), (("model", "integration"), "full"),
               (("model", "material", "membrane"), "allman"), (("model", "sections"), []),
               (("loads", "*", "pressure"), False), (("model", "hourglass"), 0.1),
-              (("model", "prescribed"), []))
+              (("model", "prescribed"), []), (("model", "lattice", "weibull_modulus"), None),
+              (("model", "lattice", "seed"), 0))
 
 
 def _drop_unset(section, path, unset):

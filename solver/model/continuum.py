@@ -306,7 +306,8 @@ def _build(scene, mesh, reach, store):
                              material_D=mat.D(),
                              lattice=Lattice(bonds=bonds, overlap_cells=overlap,
                                              geometry=lat.geometry,
-                                             break_strain=lat.break_strain) if lat else None,
+                                             break_strain=lat.break_strain,
+                                             weibull=weibull_of(lat)) if lat else None,
                              contact=contact_of(lat) if lat else None)
     return _with_heat(arrays, scene, mesh)
 
@@ -316,6 +317,11 @@ def _with_heat(arrays, scene, mesh, particles=None):
     if scene.heat is None:
         return arrays
     return dataclasses.replace(arrays, heat=heat.build(scene, mesh, particles, arrays.n_nodes))
+
+
+def weibull_of(lat):
+    """(modulus, seed) of ``model.lattice``'s strength spread, or None."""
+    return None if lat.weibull_modulus is None else (lat.weibull_modulus, lat.seed)
 
 
 def contact_of(lat):
@@ -352,6 +358,7 @@ def _with_zone(scene, mesh, zone, cells, mass):
                            u0=np.zeros(n), v0=np.zeros(n),
                            material_D=elastic(scene.model.material).D(),
                            lattice=Lattice(bonds=zone.bonds, carried=zone.blocks,
-                                           geometry=lat.geometry, break_strain=lat.break_strain),
+                                           geometry=lat.geometry, break_strain=lat.break_strain,
+                                           weibull=weibull_of(lat)),
                            contact=contact_of(lat), zone=zone)
 

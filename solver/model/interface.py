@@ -58,6 +58,7 @@ class Lattice:
     carried: list = ()           # ("bond", conn, RankOneBonds): bonds of band particles on nodes
     geometry: str = "linear"     # bonds: linear (small strain) or nonlinear (current configuration)
     break_strain: float | None = None   # bonds break beyond this strain (nonlinear), or never
+    weibull: tuple | None = None        # (modulus, seed) of the strengths' spread, or None
 
 
 @runtime_checkable

@@ -9,7 +9,9 @@ property; for small strains the two agree to first order).  A bond whose
 strain (L - L0) / L0 exceeds its critical strain breaks for good: it is
 recorded (time, midpoint, strain, critical strain, temperature, particles) and
 the energy 1/2 k (L - L0)^2 it held counts as released, so kinetic + strain +
-released = external work.
+released = external work.  With ``model.lattice.weibull_modulus`` each bond's
+critical strain is ``break_strain`` times its Weibull factor
+(:mod:`solver.model.strength`, a function of its particles' ids and the seed).
 
 With ``heat`` (:mod:`solver.model.heat`) a bond at temperature T (the mean of
 its ends') rests at L0 (1 + alpha (T - T0)), and with ``heat.melting`` its
@@ -31,6 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.model import strength
 from solver.petscutil import init, vec_on
 from solver.partitions.contact import Contact
 from solver.partitions.force import Force
@@ -44,7 +47,7 @@ class BondForce(Force):
     bonded = True
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
-                 contact=None, heat=None, node_mass=None):
+                 contact=None, heat=None, node_mass=None, weibull=None):
         # lazy: numba (about 1 s to import) loads only when a bonded partition is built
         from solver.partitions.bond_kernel import bond_forces, rest_length_work
         self._bond_forces, self._rest_length_work = bond_forces, rest_length_work
@@ -83,6 +86,9 @@ class BondForce(Force):
         self.L_cold = self.L0.copy()                 # ... at T0
         # critical strain per bond (infinite: unbreakable)
         self.limit = np.full(len(k), np.inf if break_strain is None else break_strain)
+        if weibull is not None and break_strain is not None:      # the strengths' spread
+            self.limit = break_strain * strength.weibull(conn[:, 0], conn[:, 1], *weibull)
+        self._strength = self.limit.copy()               # (thermal weakening scales it)
         self.heat = heat.spec if heat is not None else None
         self.T = None                                # per-bond temperature (with heat)
         self._shares = None
@@ -303,7 +309,7 @@ class BondForce(Force):
         self.T, self.L0 = T, L0
         if self.break_strain is not None and spec.melting is not None:
             weak = np.clip((spec.melting - T) / (spec.melting - spec.initial), 0.0, 1.0)
-            self.limit = self.break_strain * weak
+            self.limit = self._strength * weak
         return work
 
     def _share(self):

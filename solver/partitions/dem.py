@@ -59,10 +59,15 @@ class DemPartition(Partition):
             stiff = BondStiffness(stiff.points, conn, np.concatenate([k.k for _, k in lattice]))
         other = self.operator(others, scale=-1.0) if others else None
         contact = model.contact
-        force = BondForce(self, (conn, stiff), other, others, B, model.lattice.break_strain,
-                          contact, model.heat, model.mass)
-        strain = (f", breaking beyond strain {model.lattice.break_strain:g}"
-                  if model.lattice.break_strain is not None else "")
+        lat = model.lattice
+        force = BondForce(self, (conn, stiff), other, others, B, lat.break_strain,
+                          contact, model.heat, model.mass, lat.weibull)
+        strain = (f", breaking beyond strain {lat.break_strain:g}"
+                  if lat.break_strain is not None else "")
+        if lat.weibull is not None:
+            strain += (f" x a Weibull factor (modulus {lat.weibull[0]:g}, mean 1, seed "
+                       f"{lat.weibull[1]}; here {force.limit.min():.3g} to "
+                       f"{force.limit.max():.3g})")
         if contact is not None:
             law, zeta, mu = contact.law, contact.damping_ratio, contact.friction
             dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \

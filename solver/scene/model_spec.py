@@ -269,6 +269,12 @@ class LatticeSpec:
         "nonlinear bonds break for good when their strain (L - L0)/L0 exceeds this; the "
         "released energy and every break (time, place, strain) are recorded", None,
         positive=True)
+    weibull_modulus: float | None = key(
+        "Weibull modulus m of the bonds' strengths: each bond breaks at break_strain x w, w "
+        "Weibull-distributed with shape m and mean 1 (m 3-10 for rocks and ceramics; larger: "
+        "less spread), drawn from its particles' ids and seed (the same on any ranks); "
+        "default: every bond at break_strain", None, positive=True)
+    seed: int = key("seed of the strength spread (weibull_modulus)", 0, nonnegative=True)
     contact: ContactSpec | None = key(
         "contact of particles that share no live bond (linear spring k_n on the overlap of "
         "spheres); needs geometry: nonlinear", None)
@@ -285,6 +291,11 @@ class LatticeSpec:
         if self.contact is not None and not BOND_GEOMETRIES[self.geometry].current:
             fail(f"{path}.contact", "needs geometry: nonlinear (contact follows the particles' "
                  "current positions)")
+        if self.weibull_modulus is not None and self.break_strain is None:
+            fail(f"{path}.weibull_modulus", "spreads the bonds' strengths around break_strain: "
+                 "give break_strain")
+        if self.seed and self.weibull_modulus is None:
+            fail(f"{path}.seed", "seeds the strength spread: give weibull_modulus")
         if self.break_strain is not None and not BOND_GEOMETRIES[self.geometry].breakable:
             fail(f"{path}.break_strain", "needs geometry: nonlinear (a small-strain bond does not "
                  "know its current length)")
