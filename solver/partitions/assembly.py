@@ -235,3 +235,19 @@ def assemble(Ke, conn, dim, n_nodes, comm, prefix, scale=1.0):
     """Sequential AIJ (block size dim) of ``n_nodes`` nodes from element matrices."""
     number = np.arange(n_nodes)
     return matrix(lambda: [(conn, Ke)], number, n_nodes, n_nodes, 0, dim, comm, prefix, scale)
+
+
+def rows_of(op, rows, comm):
+    """(S, out): the matrix of rows ``rows`` (global indices, this rank's) of the
+    assembled ``op``, with op's column layout, so that S.mult(x, out) gives those
+    rows of op x (ghost columns refreshed by PETSc whatever the rank layout),
+    and its out Vec.  Collective on ``comm``: a rank with no row takes part."""
+    P = init()
+    got = [op.getRow(int(r)) for r in rows]
+    S = P.Mat().createAIJ(((len(got), None), op.getSizes()[1]), comm=comm)
+    S.setPreallocationNNZ(max((cols.size for cols, _ in got), default=1))
+    first = S.getOwnershipRange()[0]
+    for i, (cols, vals) in enumerate(got):
+        S.setValues([first + i], cols, vals)
+    S.assemble()
+    return S, S.createVecLeft()

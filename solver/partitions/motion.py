@@ -79,11 +79,12 @@ class Motions:
 
     def track(self, U, V, shift: float = 0.0, ka=None) -> float:
         """The reaction's work since the last call (then remember); ``shift``,
-        ``ka``: the residual evaluated before the corrector is moved to the
-        step's final state, r + shift (-K a')."""
+        ``ka`` (-K a' on the owned prescribed rows, in their order): the residual
+        evaluated before the corrector is moved to the step's final state,
+        r + shift (-K a')."""
         r, u, v = self.r_now, U[self.own], V[self.own]
         if shift:
-            r = r + shift * ka[self.own]
+            r = r + shift * ka
         w = -0.5 * float(np.dot(self.r_prev + r, u - self.u_prev)) + \
             0.5 * float(np.dot(self.m, v * v - self.v_prev * self.v_prev))
         self.r_prev[:], self.u_prev[:], self.v_prev[:] = r, u, v

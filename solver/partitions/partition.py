@@ -55,7 +55,7 @@ from solver.partitions.state import State
 from solver.petscutil import vec_on
 from solver.partitions.distribute import whole
 from solver.partitions.thermal import ThermalForce
-from solver.partitions.assembly import default_type, matrix
+from solver.partitions.assembly import default_type, matrix, rows_of
 
 
 def _forward(part: str, name: str, doc: str = "", settable: bool = False):
@@ -152,16 +152,20 @@ class Partition:
                               self.mass, self.vectors) or None
         moving = self.motion is not None           # on any piece of the partition:
         self._moving = bool(comm.allreduce(int(moving))) if comm.size > 1 else moving
-        # the prescribed rows' reaction at the step's final state: r + c (-K a')
-        # (one MatMult per step, collective; none for central difference undamped)
         self._shift = self.integrator.reaction_shift(
             self.dt, damping.beta if damped else 0.0) if self._moving else 0.0
-        self._ka = self.a.duplicate() if self._shift else None
         # r = f - K u - beta K v - alpha M v: its terms and work Vecs only when damped
         self.damping = Damping.of(damping, self.mass, comm)
         self.built = []                         # what was built, for the log (subclasses add)
         self.force = self.build_force(model, layout)
         self.internal_force = self.force.internal     # internal_force(u, out): out = f_int(u)
+        # the prescribed rows' reaction at the step's final state, r + c (-K a'): the
+        # tangent's owned prescribed rows alone, one small MatMult per step (collective;
+        # none for central difference undamped)
+        self._ka = None
+        if self._shift:
+            own = self.motion.own if self.motion is not None else np.zeros(0, np.int64)
+            self._ka = rows_of(self.force.tangent(), self.first + own, comm)
         self._viscous = self.force.viscous
         self.thermal = None
         heat = model.heat
@@ -298,8 +302,9 @@ class Partition:
         self.loads.track(self.U)
         ka = None
         if self._shift:
-            self.force.tangent().mult(self.a, self._ka)          # -K a'
-            ka = self._ka.getArray(readonly=True)
+            rows, out = self._ka
+            rows.mult(self.a, out)                               # -K a' on the prescribed rows
+            ka = out.getArray(readonly=True)
         if self.motion is not None:
             self.loads.work += self.motion.track(self.U, self.V, self._shift, ka)
 
@@ -352,8 +357,8 @@ class Partition:
             self.thermal.destroy()
         for vec in self._views:
             vec.destroy()
-        if self._ka is not None:
-            self._ka.destroy()
+        for obj in self._ka or ():
+            obj.destroy()
         if self.damping:
             self.damping.destroy()
 
