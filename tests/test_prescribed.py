@@ -236,3 +236,20 @@ def test_a_rotation_driven_on_solid_nodes_is_refused(tmp_path):
                                    "omega": 1e3}]
     line = refused(write_scene(tmp_path / "turned.yaml", raw), [], tmp_path)
     assert "model.prescribed[0].dofs: ['rx']: node" in line and "only shell nodes rotate" in line
+
+
+def test_the_guard_knows_the_step_of_a_driven_bar(tmp_path):
+    """The driven DOFs are held in the stability check as fixed ones are: the
+    driven bar's critical step is refused at 1.01 x and run at 0.99 x."""
+    from conftest import run_scene
+    raw = pulled()
+    raw["time"] = {"end": 2e-7, "dt": 2e-8}
+    crit = run_scene(raw, tmp_path).partitions["fem"]["critical_step"]
+    assert crit == pytest.approx(1.111e-7, rel=1e-3)
+    for factor, code in ((1.01, 2), (0.99, 0)):
+        raw["time"] = {"end": 10 * factor * crit, "dt": factor * crit}
+        raw["output"] = {"file": str(tmp_path / f"g{factor}.h5"), "progress": 0}
+        proc = run_cli([write_scene(tmp_path / f"g{factor}.yaml", raw)])
+        assert proc.returncode == code, (factor, proc.stderr)
+        if code:
+            assert "is unstable, critical step 1.11" in proc.stderr

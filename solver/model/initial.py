@@ -89,7 +89,11 @@ def describe(model) -> list[str]:
     if model.kind != "continuum":
         return out
     dm = model.dofmap
+    driven = np.concatenate([m.dofs for m in model.motions] or [np.zeros(0, np.int64)])
     for name, values, unit in (("moving", model.v0, "m/s"), ("displaced", model.u0, "m")):
+        if driven.size:                  # (their start is model.prescribed's: its own line)
+            values = values.copy()
+            values[driven] = 0.0
         if not np.any(values):
             continue
         starts = np.asarray(dm.offsets[np.arange(model.n_nodes)], dtype=np.int64)
