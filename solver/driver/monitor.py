@@ -50,6 +50,8 @@ class Probes(Observer):
             bv[:k + 1] = v[:k + 1]
             if sigma and probe.name in self._sigma:
                 self._sigma[probe.name][:k + 1] = sigma[0][:k + 1]
+            elif probe.name in self._sigma:      # a file without it (shells before 2026-12)
+                self._sigma[probe.name][:k + 1] = np.nan
 
     def after_step(self, step: int, t: float) -> None:
         """Observer hook: record every system step."""
