@@ -6,6 +6,7 @@ rotation (sigma = E t kappa / 2) and stretched by an end displacement
 (sigma = E delta / L), triangles and quadrilaterals, 1 and 2 ranks; on shells
 joined to a solid, probes at solid nodes keep sigma_cc."""
 import h5py
+import numpy as np
 import pytest
 
 from conftest import ROOT, run_cli, write_scene
@@ -61,8 +62,8 @@ def test_a_plate_stretched_by_an_end_displacement_probes_e_delta_over_l(tmp_path
 
 def test_shells_on_a_solid_probe_von_mises_and_sigma_xx(tmp_path):
     """The strip welded to a block (tests/test_shell.py) pulled at its tip: a
-    probe on the strip records von Mises, one in the block sigma_xx; 1 and 2
-    ranks agree."""
+    probe on the strip records von Mises, one in the block sigma_xx, a
+    rotation component there NaN; 1 and 2 ranks agree."""
     from test_shell import block_strip
     raw = block_strip()
     raw["name"] = "welded"
@@ -70,7 +71,8 @@ def test_shells_on_a_solid_probe_von_mises_and_sigma_xx(tmp_path):
     raw["loads"] = [{"at": [1.0, 0.05, 0.0], "component": 0, "kind": "tabulated",
                      "table": [[0.0, 0.0], [5e-5, 1e3], [1.0, 1e3]]}]
     raw["probes"] = [{"name": "strip", "at": [0.25, 0.05, 0.0], "component": 0},
-                     {"name": "block", "at": [-0.05, 0.05, 0.025], "component": 0}]
+                     {"name": "block", "at": [-0.05, 0.05, 0.025], "component": 0},
+                     {"name": "block_rx", "at": [-0.05, 0.05, 0.025], "component": 3}]
     out = {}
     for n in (None, 2):
         raw["output"] = {"file": str(tmp_path / f"welded{n}.h5"), "progress": 0}
@@ -80,6 +82,9 @@ def test_shells_on_a_solid_probe_von_mises_and_sigma_xx(tmp_path):
             out[n] = {k: f[f"probes/{k}/stress"][()] for k in ("strip", "block")}
             assert f["probes/strip"].attrs["stress"].startswith("von Mises")
             assert f["probes/block"].attrs["stress"].startswith("sigma_xx [Pa]")
+            # a rotation component at a solid node (held): no stress component
+            assert np.isnan(f["probes/block_rx/stress"][()]).all()
+            assert f["probes/block_rx"].attrs["stress"].startswith("none (NaN)")
     assert out[None]["strip"].max() > 1e3 and out[None]["strip"].min() >= 0.0
     assert abs(out[None]["block"]).max() > 10.0          # (the wave has just reached it)
     for k in ("strip", "block"):

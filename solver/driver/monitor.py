@@ -84,7 +84,10 @@ class Probes(Observer):
 
     def _attrs(self, probe, part) -> dict:
         attrs = {"node": probe.node, "component": probe.component, "partition": part.name}
-        if self.stress is not None and self.stress.is_shell(probe.name):
+        if self.stress is not None and not self.stress.has_stress(probe.name):
+            attrs["stress"] = ("none (NaN): a rotation component at a node of no shell cell "
+                               "has no stress component")
+        elif self.stress is not None and self.stress.is_shell(probe.name):
             attrs["stress"] = ("von Mises [Pa] of the larger face (N / t -+ 6 M / t^2), "
                                "average of the node's shell cells")
         elif self.stress is not None:

@@ -134,6 +134,7 @@ class StressProbes:
         self.heating = None                  # set by the runner with heat: thermal strain
         self.thermal = {}                    # probe -> (nodes, weights): sigma_th
         self.shell_names = set()             # probes at shell nodes: von Mises
+        self.no_stress = set()               # rotation components off the shells: NaN
         rho = scene.model.material.rho
         dim = mdl.dof
         for part in parts:
@@ -153,6 +154,9 @@ class StressProbes:
                         entries += [(cols, row) for row in coef]
                     names.append((probe.name, slice(first, len(entries))))
                     self.shell_names.add(probe.name)
+                    continue
+                if probe.component >= mdl.points.shape[1]:    # a rotation off the shells
+                    self.no_stress.add(probe.name)
                     continue
                 th = []
                 nodes, coef = (bond_row(mdl, probe.node, probe.component, rho, not nonlinear, th)
@@ -181,11 +185,15 @@ class StressProbes:
         """Probe ``name`` records a shell's von Mises stress (not sigma_cc)."""
         return name in self.shell_names
 
+    def has_stress(self, name: str) -> bool:
+        """Probe ``name`` records a stress (not a rotation component off the shells)."""
+        return name not in self.no_stress
+
     def values(self) -> dict:
         """{probe name: sigma} of this rank's probes (collective).  The lattice
         bonds of a nonlinear partition count in their current configuration
         (broken ones not at all): 1/(2V) sum k (L - L0) d_c^2 / L."""
-        got = {}
+        got = dict.fromkeys(self.no_stress, float("nan"))
         heat = self.heating
         for S, u, out_vec, out, rows in self.ops:
             S.mult(u, out_vec)

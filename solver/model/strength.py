@@ -32,7 +32,7 @@ def uniform(i, j, seed: int) -> np.ndarray:
             x ^= x >> np.uint64(shift)
             x *= mult
         x ^= x >> np.uint64(31)
-    return ((x >> np.uint64(11)).astype(float) + 0.5) / 2.0 ** 53
+    return ((x >> np.uint64(12)).astype(float) + 0.5) / 2.0 ** 52   # (k + 0.5 exact: < 1)
 
 
 def weibull(i, j, modulus: float, seed: int) -> np.ndarray:

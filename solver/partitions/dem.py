@@ -65,9 +65,10 @@ class DemPartition(Partition):
         strain = (f", breaking beyond strain {lat.break_strain:g}"
                   if lat.break_strain is not None else "")
         if lat.weibull is not None:
+            here = (f"; this piece's {force.limit.min():.3g} to {force.limit.max():.3g}"
+                    if force.limit.size else "")
             strain += (f" x a Weibull factor (modulus {lat.weibull[0]:g}, mean 1, seed "
-                       f"{lat.weibull[1]}; here {force.limit.min():.3g} to "
-                       f"{force.limit.max():.3g})")
+                       f"{lat.weibull[1]}{here})")
         if contact is not None:
             law, zeta, mu = contact.law, contact.damping_ratio, contact.friction
             dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \
