@@ -33,6 +33,7 @@ import h5py
 
 from solver.driver.observers import Observer
 from solver.model.elements import elastic, quadrature, strain_matrix, FAMILIES
+from solver.model.shell import faces
 
 
 def _open(xdmf: str):
@@ -175,9 +176,8 @@ class FieldWriter(Observer):
                 nan = np.full((len(conn), 3), np.nan)
                 parts = (nan, nan, nan, nan, nan, nan[:, 0])
             else:
-                N, M, mises = Ke.resultants(u[conn].reshape(len(conn), 6 * conn.shape[1]))
-                t = Ke.material.thickness
-                parts = (N, M, N / t - 6 * M / t ** 2, N / t, N / t + 6 * M / t ** 2, mises)
+                N, M, vm = Ke.resultants(u[conn].reshape(len(conn), 6 * conn.shape[1]))
+                parts = (N, M, *faces(N, M, Ke.material.thickness), vm)
             for name, value in zip(out, parts):
                 out[name].append(value)
         return out

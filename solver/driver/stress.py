@@ -32,6 +32,7 @@ import numpy as np
 
 from solver.petscutil import init, vec_on
 from solver.model.elements import quadrature, strain_matrix
+from solver.model.shell import faces, mises
 
 
 def fe_row(mdl, node: int, c: int, thermal=None):
@@ -75,18 +76,15 @@ def shell_rows(mdl, node: int):
             n = 6 * conn.shape[1]
             one = type(Ke)(Ke.points, conn[[c] * n], Ke.material)   # the cell n times
             N, M, _ = one.resultants(np.eye(n))                       # [n, 3]: per unit DOF
-            t = Ke.material.thickness
-            out.append((conn[c], np.concatenate([(N / t - 6 * M / t ** 2).T,
-                                                 (N / t + 6 * M / t ** 2).T])))
+            top, _, bottom = faces(N, M, Ke.material.thickness)
+            out.append((conn[c], np.concatenate([top.T, bottom.T])))
     return out
 
 
 def shell_mises(rows: np.ndarray) -> float:
     """The mean over cells of the larger face's von Mises stress, from the
     cells' face-stress rows [6 n_cells] (:func:`shell_rows`)."""
-    s = rows.reshape(-1, 2, 3)
-    vm = np.sqrt(s[..., 0] ** 2 - s[..., 0] * s[..., 1] + s[..., 1] ** 2 + 3 * s[..., 2] ** 2)
-    return float(vm.max(axis=1).mean())
+    return float(mises(rows.reshape(-1, 2, 3)).max(axis=1).mean())
 
 
 def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True, thermal=None):

@@ -154,15 +154,23 @@ def resultants(X: np.ndarray, u: np.ndarray, E: float, nu: float, t: float,
     return N, M, face_mises(N, M, t)
 
 
+def faces(N, M, t):
+    """(top, middle, bottom) stresses sigma = N / t - 6 M / t^2, N / t, N / t + 6 M / t^2
+    (top: +z of the cell frame) from membrane forces and moments (xx, yy, xy)
+    along the last axis (linear: N, M may be coefficient rows)."""
+    return N / t - 6 * M / t ** 2, N / t, N / t + 6 * M / t ** 2
+
+
+def mises(s):
+    """The plane-stress von Mises stress of (xx, yy, xy) along the last axis."""
+    return np.sqrt(s[..., 0] ** 2 - s[..., 0] * s[..., 1] + s[..., 1] ** 2 + 3 * s[..., 2] ** 2)
+
+
 def face_mises(N, M, t):
-    """The larger von Mises stress of the two faces, sigma = N / t -+ 6 M / t^2,
-    from membrane forces and moments (xx, yy, xy) [e, 3]: [e]."""
-    mises = np.zeros(len(N))
-    for side in (1.0, -1.0):
-        s = N / t - side * 6 * M / t ** 2
-        mises = np.maximum(mises, np.sqrt(s[:, 0] ** 2 - s[:, 0] * s[:, 1] + s[:, 1] ** 2 +
-                                          3 * s[:, 2] ** 2))
-    return mises
+    """The larger von Mises stress of the two faces (:func:`faces`) from membrane
+    forces and moments (xx, yy, xy) [e, 3]: [e]."""
+    top, _, bottom = faces(N, M, t)
+    return np.maximum(mises(top), mises(bottom))
 
 
 def lumped_mass(X: np.ndarray, rho: float, t: float, rotary: str = "physical") -> np.ndarray:

@@ -32,7 +32,7 @@ class Motions:
 
     def __init__(self, motions, held_dofs, n_own: int, mass, vectors):
         order = np.argsort(held_dofs, kind="stable")
-        self.groups = []                       # (motion, local rows)
+        self.groups = []                       # (the motion's at(t), its held rows)
         for m in motions:
             pos = np.searchsorted(held_dofs, m.dofs, sorter=order)
             pos = np.minimum(pos, order.size - 1)

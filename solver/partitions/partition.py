@@ -41,6 +41,7 @@ owned groups), ``inverse_mass`` and ``clear_external_mass_damping()``.
 from __future__ import annotations
 
 from contextlib import contextmanager
+from functools import partial
 from operator import attrgetter
 
 import numpy as np
@@ -316,16 +317,11 @@ class Partition:
     def advance(self, t0: float):
         """One system step: ``n_sub`` steps of size ``dt`` from time ``t0``."""
         step, h = self.step_once, self.dt
-        if self._moving:
-            track = self.track_work
+        if self.loads.owned or self._moving:
+            track = self.track_work if self._moving else partial(self.loads.track, self.U)
             for k in range(1, self.n_sub + 1):
                 step(t0 + k * h)
                 track()
-        elif self.loads.owned:
-            track, U = self.loads.track, self.U
-            for k in range(1, self.n_sub + 1):
-                step(t0 + k * h)
-                track(U)
         else:
             for k in range(1, self.n_sub + 1):
                 step(t0 + k * h)
