@@ -136,7 +136,11 @@ class ContactSettings:
     """The contact of a lattice's unbonded particles (``model.lattice.contact``,
     defaults filled): the normal ``law`` (with its stiffness), the spheres'
     ``radius`` [m], the neighbour-list ``skin`` [m], the normal dashpot ratio,
-    the Coulomb friction coefficient and its viscous regularisation ratio."""
+    the Coulomb friction coefficient and its tangential dashpot ratio (the
+    viscous regularisation, or the dashpot beside the shear spring);
+    ``history``: a tangential spring k_t = ``tangential_stiffness`` x the
+    normal tangent stiffness with Coulomb sliding, kept per contact
+    (Cundall-Strack) instead of viscous friction alone."""
 
     law: ContactLaw
     radius: float
@@ -144,6 +148,8 @@ class ContactSettings:
     damping_ratio: float = 0.0
     friction: float = 0.0
     tangential_damping_ratio: float = 0.5
+    history: bool = False
+    tangential_stiffness: float = 2.0 / 7.0
 
 
 @BOND_GEOMETRIES.register

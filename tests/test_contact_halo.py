@@ -21,9 +21,11 @@ A = 8.0e-4
 SAMPLES = (60, 120, 180, 240)          # system steps at which pairs and displacements are taken
 
 
-def halo_bar(tmp, name: str) -> dict:
+def halo_bar(tmp, name: str, friction: str | None = None) -> dict:
+    """The bar; ``friction``: its contacts' friction_model (friction 0.02; None:
+    frictionless)."""
     pulse = {"group": "left", "kind": "half_sine", "amplitude": 1.5e5, "duration": 2.0e-6}
-    return {
+    raw = {
         "name": f"halo_{name}", "time": {"end": SAMPLES[-1] * 4.0e-8, "dt": 4.0e-8},
         "model": {
             "kind": "continuum", "mesh": str(ROOT / "meshes" / "bar2d.geo"),
@@ -40,6 +42,9 @@ def halo_bar(tmp, name: str) -> dict:
         "reference": "none",
         "output": {"file": str(tmp / f"{name}.h5"), "progress": 0},
     }
+    if friction is not None:
+        raw["model"]["lattice"]["contact"].update(friction=0.02, friction_model=friction)
+    return raw
 
 
 def stepped(raw, comm) -> dict:
@@ -57,13 +62,16 @@ def stepped(raw, comm) -> dict:
     force, Dt = dem.force, asm.scene.system_dt
     shared = np.unique(np.concatenate([c for c, k in dem.force_model.bond_blocks(
         dem.whole_held()) if isinstance(k, BondStiffness)]))
-    out = {"pairs": [], "u": [], "apart": [], "beyond_share": 0}
+    out = {"pairs": [], "u": [], "apart": [], "beyond_share": 0, "shear": [],
+           "slid": 0.0}
     s = 0
     for stop in SAMPLES:
         while s < stop:
             asm.scheme.step(s * Dt)
             s += 1
+            out["slid"] += force.contact._slipped         # the work of sliding (this piece's)
         out["pairs"].append(force.contact_pairs())
+        out["shear"].append(force.contact_history())      # (a, b, xi, separation) or None
         U = dem.U[:dem.n_own].reshape(-1, 2).copy()
         out["u"].append(dict(zip(dem.layout.owned.tolist(), U)))
         i, j = force.contact.touching()
@@ -92,4 +100,4 @@ def test_contact_through_the_halo_on_n_ranks(n, tmp_path):
     """tests/mpi/mpi_halo.py under mpiexec -n N (4 oversubscribes this machine):
     every test passes on every rank."""
     for rank, counts in enumerate(mpi_pytest("tests/mpi/mpi_halo.py", n, tmp_path)):
-        assert counts == {"tests": 2, "failures": 0, "errors": 0, "skipped": 0}, (rank, counts)
+        assert counts == {"tests": 3, "failures": 0, "errors": 0, "skipped": 0}, (rank, counts)

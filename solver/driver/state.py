@@ -7,7 +7,8 @@ Between system steps a run is determined by
   owners by one exchange, which is what the last system step ended with);
 * per partition: steps done, external work, damping dissipation and the last load values of every
   load function (the work increment's f_n); the broken bonds (time, midpoint,
-  strain, particles) of breakable lattices;
+  strain, particles) of breakable lattices; the contacts' shear histories
+  (friction_model: history: particle ids, xi, last separation);
 * the energy guard: its samples so far, initial energy, largest |work|;
 * the probe histories so far and the number of system steps done.
 
@@ -60,7 +61,9 @@ NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "
               (("model", "material", "membrane"), "allman"), (("model", "sections"), []),
               (("loads", "*", "pressure"), False), (("model", "hourglass"), 0.1),
               (("model", "prescribed"), []), (("model", "lattice", "weibull_modulus"), None),
-              (("model", "lattice", "seed"), 0))
+              (("model", "lattice", "seed"), 0),
+              (("model", "lattice", "contact", "friction_model"), "viscous"),
+              (("model", "lattice", "contact", "tangential_stiffness"), 2.0 / 7.0))
 
 
 def _drop_unset(section, path, unset):
@@ -107,20 +110,22 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
         n = p.n_own
         local.append((p.name, p.layout.owned, p.state[:, :n].copy(),
                       np.array([p.work, p.dissipated]), p.steps,
-                      p.load_memory(), list(p.force.broken)))
+                      p.load_memory(), list(p.force.broken), p.force.contact_history()))
     chunks = comm.gather(local, root=0) if comm.size > 1 else [local]
     if comm.rank != 0:
         return None
     merged: dict = {}
     for chunk in chunks:
-        for name, nodes, uva, work, steps, loads, broken in chunk:
+        for name, nodes, uva, work, steps, loads, broken, contacts in chunk:
             m = merged.setdefault(name, {"nodes": [], "uva": [], "work": np.zeros(2), "steps": steps,
-                                         "loads": {}, "broken": []})
+                                         "loads": {}, "broken": [], "contacts": []})
             m["nodes"].append(nodes)
             m["uva"].append(uva.reshape(3, nodes.size, -1))
             m["work"] += work
             m["loads"].update(loads)
             m["broken"] += broken
+            if contacts is not None:
+                m["contacts"].append(contacts)
     parts_out = {}
     for name, m in merged.items():
         nodes = np.concatenate(m["nodes"])
@@ -131,6 +136,9 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
                            "steps": m["steps"], "load_keys": keys,
                            "load_values": np.array([m["loads"][int(i)] for i in keys]),
                            "broken": np.array(sorted(m["broken"]), dtype=float)}
+        if m["contacts"]:                     # the contacts' shear histories, by pair
+            rows = np.concatenate(m["contacts"])
+            parts_out[name]["contacts"] = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
     merged_memory = {}
     for m in memories:
         for key, value in m.items():
@@ -159,6 +167,7 @@ def restore(data: dict, parts, scheme, guard):
         p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
                                        saved["load_values"].tolist())))
         p.force.restore_broken(saved["broken"])
+        p.force.restore_contacts(saved.get("contacts", ()))
     scheme.synchronise()
     scheme.restore_memory(data.get("scheme") or {})
     if guard is not None:
@@ -182,8 +191,9 @@ def write_group(f, data: dict, meta: dict):
         g.attrs[k] = v
     for name, part in data["parts"].items():
         pg = g.create_group(f"partitions/{name}")
-        for k in ("nodes", "uva", "load_keys", "load_values", "broken"):
-            dataset(pg, k, part[k])
+        for k in ("nodes", "uva", "load_keys", "load_values", "broken", "contacts"):
+            if k in part:
+                dataset(pg, k, part[k])
         pg.attrs["work"] = part["work"]
         pg.attrs["steps"] = part["steps"]
     gg = g.create_group("guard")
@@ -256,7 +266,8 @@ def _read(path: str, scene) -> dict:
             parts = {}
             for name, pg in g["partitions"].items():
                 parts[name] = {k2: get(pg, k2) if k2 in pg else np.zeros(0)
-                               for k2 in ("nodes", "uva", "load_keys", "load_values", "broken")}
+                               for k2 in ("nodes", "uva", "load_keys", "load_values", "broken",
+                                          "contacts")}
                 parts[name].update(work=np.atleast_1d(pg.attrs["work"]).astype(float),
                                    steps=int(pg.attrs["steps"]))
                 if not np.all(np.isfinite(parts[name]["uva"])):

@@ -334,7 +334,9 @@ def contact_of(lat):
     return ContactSettings(law=CONTACT_LAWS[c.law](c.stiffness), radius=radius,
                            skin=c.skin if c.skin is not None else 0.3 * radius,
                            damping_ratio=c.damping_ratio, friction=c.friction,
-                           tangential_damping_ratio=c.tangential_damping_ratio)
+                           tangential_damping_ratio=c.tangential_damping_ratio,
+                           history=c.friction_model == "history",
+                           tangential_stiffness=c.tangential_stiffness)
 
 
 def _with_zone(scene, mesh, zone, cells, mass):

@@ -35,7 +35,7 @@ import numpy as np
 
 from solver.model import strength
 from solver.petscutil import init, vec_on
-from solver.partitions.contact import Contact
+from solver.partitions.contact import KEY, Contact
 from solver.partitions.force import Force
 from solver.partitions.halo import ContactHalo
 
@@ -126,7 +126,7 @@ class BondForce(Force):
         split = part.comm.size > 1
         self._bonded_contact = (particles, mass)
         self.contact = Contact(particles, settings, self.i, self.j, mass, lay.n_owned,
-                               rest=self.X, decides=not split)
+                               rest=self.X, decides=not split, ids=self.ids, dt=part.dt)
         if split:
             mine = particles[particles < held.size]
             self.halo = ContactHalo(part.comm, self.contact.reach, mine[mine < lay.n_owned],
@@ -162,7 +162,7 @@ class BondForce(Force):
         self._u = np.zeros_like(self.X)
         particles, bonded_mass = self._bonded_contact
         self.contact.renew(np.concatenate([particles, n0 + np.arange(ids.size)]),
-                           np.concatenate([bonded_mass, mass]), self.X)
+                           np.concatenate([bonded_mass, mass]), self.X, self.ids)
         u = self.displacements(u_vec)
         self.contact.build(u)
         return u
@@ -185,15 +185,43 @@ class BondForce(Force):
         evaluation that this piece counts: those whose end of smaller id is
         owned here, or owned by no piece of the partition and the other end
         is owned here (summed over the pieces: each pair once)."""
-        i, j = self.contact.touching()
+        a, b, counted = self._counted(*self.contact.touching())
+        return np.stack([a[counted], b[counted]], axis=1)
+
+    def _counted(self, i, j):
+        """Global ids (a < b) of local pairs (i, j) and which of them this piece
+        counts (see :meth:`contact_pairs`)."""
         gi, gj = self.ids[i], self.ids[j]
         swap = gi > gj
         a, b = np.where(swap, gj, gi), np.where(swap, gi, gj)
         owned = self.part.layout.n_owned
         a_here, b_here = np.where(swap, j, i) < owned, np.where(swap, i, j) < owned
         a_owned = ~np.isin(a, self.part.dist.external)      # (every contact particle is held)
-        counted = a_here | (~a_owned & b_here)
-        return np.stack([a[counted], b[counted]], axis=1)
+        return a, b, a_here | (~a_owned & b_here)
+
+    def contact_history(self):
+        """The shear histories this piece counts, rows (a, b, xi, separation)
+        oriented from the smaller global id a to b (a checkpoint's), or None
+        without them."""
+        if self.contact is None or not self.contact.history:
+            return None
+        keys, xi, sep = self.contact.table()
+        a, b = keys // KEY, keys % KEY
+        loc = {g: n for n, g in enumerate(self.ids.tolist())}
+        i = np.array([loc[g] for g in a.tolist()], dtype=np.int64)
+        j = np.array([loc[g] for g in b.tolist()], dtype=np.int64)
+        counted = self._counted(i, j)[2]
+        return np.column_stack([a, b, xi.reshape(a.size, -1), sep.reshape(a.size, -1)])[counted]
+
+    def restore_contacts(self, rows):
+        """Shear histories of a checkpoint (rows of :meth:`contact_history`, all
+        pieces'); they apply from the next force evaluation."""
+        if self.contact is None or not self.contact.history:
+            return
+        rows = np.asarray(rows, dtype=float).reshape(-1, 2 + 2 * self.dim)
+        a, b = rows[:, 0].astype(np.int64), rows[:, 1].astype(np.int64)
+        dim = self.dim
+        self.contact.restore(a * KEY + b, rows[:, 2:2 + dim], rows[:, 2 + dim:])
 
     # ---------------------------------------------------------------- state
     def bonds_at(self, node) -> np.ndarray:

@@ -9,10 +9,25 @@ settings' law (:data:`solver.laws.CONTACT_LAWS`):
 - a normal dashpot (``damping_ratio`` zeta) adds c v_approach, c = 2 zeta
   sqrt(k m*) with k the tangent stiffness and m* the pair's reduced mass (a
   spring-dashpot; its dissipation enters the energy audit);
-- friction (``friction`` mu): a tangential force against the sliding
-  velocity v_t of magnitude min(mu f_n, c_t |v_t|), c_t = 2 zeta_t sqrt(k m*):
-  Coulomb's limit with a viscous regularisation and no shear history (as
-  LAMMPS's gran/hooke); it only dissipates.
+- friction (``friction`` mu), ``friction_model`` viscous: a tangential force
+  against the sliding velocity v_t of magnitude min(mu f_n, c_t |v_t|),
+  c_t = 2 zeta_t sqrt(k m*): Coulomb's limit with a viscous regularisation
+  and no shear history (as LAMMPS's gran/hooke); it only dissipates;
+- ``friction_model`` history (Cundall and Strack 1979; LAMMPS's
+  gran/hooke/history): each contact keeps its shear displacement xi, the
+  tangential part of the change of x_j - x_i since the contact began.  At
+  every force evaluation the stored xi is turned into the current tangent
+  plane (its length kept), the tangential part of the separation's change
+  since the last evaluation is added, and the spring k_t = ratio x k (k the
+  normal tangent stiffness) pulls with -k_t xi, capped at mu f_n: beyond
+  it the contact slides, xi is shortened to mu f_n / k_t and the work of
+  sliding, mu f_n times the slip, is dissipated.  While it sticks a
+  dashpot c_t = 2 zeta_t sqrt(k_t m*) acts beside the spring, the two
+  together at most mu f_n.  The spring holds 1/2 k_t |xi|^2 (strain energy).
+  A pair's xi lives while it touches; it is kept by global particle ids
+  across rebuilds of the search and of the halo, so that every piece that
+  evaluates the pair holds the same xi (in its own orientation: exactly the
+  negative where its local order is the other way), and in checkpoints.
 A pair bonded at rest is never in contact while its bond lives; once the bond
 breaks, the two touch again only when pressed closer than 2r, so a crack
 that opens transmits nothing and a crack that closes transmits compression.
@@ -31,7 +46,8 @@ particles then change with its halo (:mod:`solver.partitions.halo`).
 The stable step accounts for contact springs with a bound:
 lambda_max(K_bonds + K_contact) <= lambda_bonds + 2 z k / m_min, z the
 largest coordination of equal spheres (6 in 2D, 12 in 3D), k the law's
-bound (hertz: its tangent at an overlap of 0.1 r).
+bound (hertz: its tangent at an overlap of 0.1 r), times max(1, k_t / k)
+with shear springs.
 """
 from __future__ import annotations
 
@@ -46,8 +62,10 @@ def coordination(dim: int) -> int:
 
 
 def bound_stiffness(contact) -> float:
-    """The contact stiffness the step bound uses, from the ContactSettings."""
-    return contact.law.bound(contact.radius)
+    """The contact stiffness the step bound uses, from the ContactSettings: a
+    contact's stiffness k n n^T + k_t (I - n n^T) has the norm max(k, k_t)."""
+    k = contact.law.bound(contact.radius)
+    return k * max(1.0, contact.tangential_stiffness) if contact.history else k
 
 
 class Contact:
@@ -62,16 +80,25 @@ class Contact:
     ``rest``: the rest positions X of the local positions; the methods then
     take displacements u (without it, X = 0 and they take positions).
     ``decides``: :meth:`forces` rebuilds the tree itself when it is stale
-    (False: the caller does, for all pieces at once)."""
+    (False: the caller does, for all pieces at once).  ``ids``: the global id
+    of each local position (the shear history's keys; default the local
+    index); ``dt``: the step, over which :meth:`viscous` spreads the work of
+    sliding as a power."""
 
     def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None, rest=None,
-                 decides=True):
+                 decides=True, ids=None, dt=None):
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self.law = settings.law
         self.radius, self.skin = settings.radius, settings.skin
         self.zeta, self.mu = settings.damping_ratio, settings.friction
         self.zeta_t = settings.tangential_damping_ratio
+        self.history = settings.history
+        self.ratio = settings.tangential_stiffness
         self.mass = mass
+        self.ids, self.dt = ids, dt
+        self._shear = None                            # (xi, separation, live) per pair of _mine
+        self._pending = None                          # a history table for the next build
+        self._slipped = 0.0                           # work of sliding at the last forces [J]
         self.rest = rest
         self.decides = decides
         self.owned = np.iinfo(np.int64).max if owned is None else owned
@@ -81,7 +108,7 @@ class Contact:
         self._sorted_keys = key[self._key_order]
         self._u_built = None                          # displacements at the last build
         self._pairs = np.zeros((0, 2), dtype=np.int64)
-        self._last = None                             # (i, j, n, tangent k) of the last forces
+        self._last = None                  # (i, j, n, tangent k, f_n, shear, d) of the last forces
         self.builds = 0
         self.energy = 0.0
 
@@ -103,12 +130,17 @@ class Contact:
         moved = np.max(np.linalg.norm(u[self.nodes] - self._u_built, axis=1), initial=0.0)
         return bool(moved > 0.5 * self.skin)
 
-    def renew(self, nodes, mass, rest):
-        """New contact particles ``nodes`` (local indices) with the masses and
-        rest positions of every local position (a piece's halo changed); the
-        tree is then built by :meth:`build`."""
+    def renew(self, nodes, mass, rest, ids=None):
+        """New contact particles ``nodes`` (local indices) with the masses, rest
+        positions and global ids of every local position (a piece's halo
+        changed); the tree is then built by :meth:`build`, which takes the
+        shear histories over by global ids."""
+        if self.history:
+            self._pending = self.table()
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self.mass, self.rest = mass, rest
+        if ids is not None:
+            self.ids = ids
         self._u_built = None
 
     def build(self, u):
@@ -123,9 +155,84 @@ class Contact:
         at = np.minimum(np.searchsorted(self._sorted_keys, key), max(len(self._sorted_keys) - 1, 0))
         found = self._sorted_keys[at] == key if len(self._sorted_keys) else np.zeros(len(key), bool)
         self._pair_bond = np.where(found, self._key_order[at] if len(self._key_order) else -1, -1)
+        if self.history:
+            table = self._pending if self._pending is not None else self.table()
         self._mine = self._subset((i < self.owned) | (j < self.owned))
+        if self.history:
+            self._take_over(table, u.shape[1])
+            self._pending = None
         self._u_built = u[self.nodes].copy()
         self.builds += 1
+
+    # ---------------------------------------------------------- shear history
+    def _global(self, i, j):
+        """Pair keys min * KEY + max of the global ids of local pairs (i, j), and
+        each pair's orientation (-1 where the global order is j, i)."""
+        gi, gj = (i, j) if self.ids is None else (self.ids[i], self.ids[j])
+        sign = np.where(gi < gj, 1.0, -1.0)
+        return np.minimum(gi, gj) * KEY + np.maximum(gi, gj), sign
+
+    def table(self):
+        """The shear history of the touching pairs as (sorted global keys, xi,
+        separation at the last evaluation), each oriented from the smaller
+        global id to the larger; empty where no pair touches."""
+        if self._pending is not None:                 # taken over at the next build
+            return self._pending
+        if self._shear is None:
+            return np.zeros(0, np.int64), np.zeros((0, 0)), np.zeros((0, 0))
+        xi, sep, live = self._shear
+        at = np.flatnonzero(live)
+        keys, sign = self._global(self._mine[0][at], self._mine[1][at])
+        order = np.argsort(keys)
+        flip = sign[order, None]
+        return keys[order], xi[at][order] * flip, sep[at][order] * flip
+
+    def restore(self, keys, xi, sep):
+        """Shear histories of a checkpoint (global keys, xi and separations
+        oriented from the smaller id): taken at the next force evaluation,
+        which rebuilds the search."""
+        order = np.argsort(keys)
+        self._pending = (np.asarray(keys, np.int64)[order], xi[order], sep[order])
+        self._u_built = None
+
+    def _take_over(self, table, dim):
+        """The new candidate pairs' histories from ``table`` (by global ids)."""
+        keys, xi, sep = table
+        i, j = self._mine[0], self._mine[1]
+        new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim))
+        live = np.zeros(i.size, bool)
+        if keys.size and i.size:
+            mine, sign = self._global(i, j)
+            at = np.minimum(np.searchsorted(keys, mine), keys.size - 1)
+            live = keys[at] == mine
+            new_xi[live] = xi[at[live]] * sign[live, None]
+            new_sep[live] = sep[at[live]] * sign[live, None]
+        self._shear = (new_xi, new_sep, live)
+
+    def _spring(self, at, d, unit, k, fn):
+        """The shear springs of the touching pairs ``at`` (indices into the
+        pairs with an owned end) at separations ``d``: their force on j, their
+        energy, whether each sticks, and the work of sliding (this piece's
+        share); the histories advance to this evaluation."""
+        xi_all, sep_all, live_all = self._shear
+        was = live_all[at]
+        xi = np.where(was[:, None], xi_all[at], 0.0)
+        step = np.where(was[:, None], d - sep_all[at], 0.0)
+        length = np.linalg.norm(xi, axis=1)
+        xi -= np.einsum("pc,pc->p", xi, unit)[:, None] * unit          # into the tangent plane
+        turned = np.linalg.norm(xi, axis=1)
+        xi *= np.divide(length, turned, out=np.zeros_like(length), where=turned > 0)[:, None]
+        xi += step - np.einsum("pc,pc->p", step, unit)[:, None] * unit
+        kt = self.ratio * k
+        length = np.linalg.norm(xi, axis=1)
+        cap = self.mu * fn
+        slides = kt * length > cap
+        slip = np.where(slides, length - cap / kt, 0.0)
+        xi[slides] *= (cap[slides] / (kt[slides] * length[slides]))[:, None]
+        live_all[:] = False
+        live_all[at] = True
+        xi_all[at], sep_all[at] = xi, d
+        return -kt[:, None] * xi, 0.5 * kt * np.einsum("pc,pc->p", xi, xi), ~slides, cap * slip
 
     def _subset(self, at):
         """(i, j, bond, which of them have a bond, rest separations X_j - X_i or
@@ -135,9 +242,9 @@ class Contact:
         return i, j, bond, np.flatnonzero(bond >= 0), rest
 
     def _touching(self, u, alive, node=None):
-        """(i, j, d = x_j - x_i, distance, overlap) at displacements ``u`` of the
-        candidate pairs (of ``node`` only, if given) that overlap and share no
-        live bond."""
+        """(i, j, d = x_j - x_i, distance, overlap, where) at displacements ``u``
+        of the candidate pairs (of ``node`` only, if given) that overlap and
+        share no live bond; ``where``: their indices among the candidates."""
         if node is None:                                     # the pairs with an owned end
             i, j, bond, with_bond, rest = self._mine
         else:
@@ -149,8 +256,8 @@ class Contact:
         overlap = 2 * self.radius - dist
         bonded = np.zeros(len(i), bool)
         bonded[with_bond] = alive[bond[with_bond]]           # a live bond excludes the pair
-        touch = (overlap > 0) & ~bonded & (dist > 0)
-        return i[touch], j[touch], d[touch], dist[touch], overlap[touch]
+        touch = np.flatnonzero((overlap > 0) & ~bonded & (dist > 0))
+        return i[touch], j[touch], d[touch], dist[touch], overlap[touch], touch
 
     def _share(self, i, j):
         """Each pair's share here: half per owned end."""
@@ -158,25 +265,42 @@ class Contact:
 
     def stress(self, u, alive, node, c) -> float:
         """sum over the contacts of ``node`` of f_c r_c (its virial, sign of tension):
-        a pushing contact has f = -f_n n on the particle and r = dist n."""
-        _, _, d, dist, overlap = self._touching(u, alive, node)
+        a pushing contact has f = -f_n n on the particle and r = dist n; the
+        shear springs count with their forces of the last :meth:`forces`."""
+        _, _, d, dist, overlap, _ = self._touching(u, alive, node)
         f, _, _ = self.law.evaluate(overlap)
-        return float(-np.sum((f / dist) * d[:, c] ** 2))
+        total = float(-np.sum((f / dist) * d[:, c] ** 2))
+        if self._last is not None and self._last[5] is not None:
+            i, j, _, _, _, (spring, _), d = self._last
+            at = (i == node) | (j == node)
+            total -= float(np.sum(spring[at, c] * d[at, c]))
+        return total
 
     def forces(self, u, alive, out, rows):
         """Add the contact forces at displacements ``u`` to ``out`` (rows <
         ``rows``); ``alive``: the bonds' live flags (a live bond excludes its pair)."""
         if self.decides and self.stale(u):
             self.build(u)
-        i, j, d, dist, overlap = self._touching(u, alive)
+        i, j, d, dist, overlap, at = self._touching(u, alive)
         if not i.size:
-            self.energy, self._last = 0.0, None
+            self.energy, self._last, self._slipped = 0.0, None, 0.0
+            if self._shear is not None:
+                self._shear[2][:] = False                    # no pair touches: no history
             return
         f, k, energy = self.law.evaluate(overlap)
-        self.energy = float(np.dot(energy, self._share(i, j)))
         unit = d / dist[:, None]
-        self._last = (i, j, unit, k, f)
-        _scatter(out, rows, i, j, f[:, None] * unit)
+        force = f[:, None] * unit
+        share = self._share(i, j)
+        shear = None
+        if self.history:
+            spring, held, sticks, slipped = self._spring(at, d, unit, k, f)
+            force += spring
+            energy = energy + held
+            self._slipped = float(np.dot(slipped, share))
+            shear = (spring, sticks)
+        self.energy = float(np.dot(energy, share))
+        self._last = (i, j, unit, k, f, shear, d)
+        _scatter(out, rows, i, j, force)
 
     def touching(self):
         """(i, j) local indices of the pairs in contact at the last :meth:`forces`."""
@@ -194,7 +318,7 @@ class Contact:
         power [W] (this piece's share)."""
         if self._last is None or not self.dissipative:
             return 0.0
-        i, j, unit, k, fn = self._last
+        i, j, unit, k, fn, shear, _ = self._last
         mi, mj = self.mass[i], self.mass[j]
         root = np.sqrt(k * mi * mj / (mi + mj))
         dv = v[j] - v[i]
@@ -208,12 +332,19 @@ class Contact:
         if self.mu:
             vt = dv - vn[:, None] * unit                         # sliding velocity of j on i
             speed = np.linalg.norm(vt, axis=1)
-            ft = np.minimum(self.mu * fn, 2 * self.zeta_t * root * speed)
+            if shear is None:
+                ft = np.minimum(self.mu * fn, 2 * self.zeta_t * root * speed)
+            else:                              # beside a sticking spring, together <= mu f_n
+                spring, sticks = shear
+                room = np.maximum(self.mu * fn - np.linalg.norm(spring, axis=1), 0.0)
+                ft = np.where(sticks, np.minimum(
+                    room, 2 * self.zeta_t * np.sqrt(self.ratio) * root * speed), 0.0)
             slide = speed > 0
             force[slide] -= (ft[slide] / speed[slide])[:, None] * vt[slide]
             power += ft * speed
         _scatter(out, rows, i, j, force)
-        return float(np.dot(power, self._share(i, j)))
+        total = float(np.dot(power, self._share(i, j)))
+        return total + self._slipped / self.dt if self._slipped else total
 
 
 def _scatter(out, rows, i, j, f):

@@ -73,6 +73,11 @@ class DemPartition(Partition):
             law, zeta, mu = contact.law, contact.damping_ratio, contact.friction
             dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \
                 (f", friction {mu:g}" if mu else "")
+            if contact.history:
+                dash += (f" on shear springs k_t = {contact.tangential_stiffness:.4g} k kept per "
+                         "pair (Cundall-Strack)")
+            elif mu:
+                dash += " (viscous, no shear history)"
             strain += (f"; {law.name} contact of unbonded particles (radius {contact.radius:g} m, "
                        f"stiffness {law.stiffness:g} {law.unit}{dash}, k-d tree with skin "
                        f"{contact.skin:g} m)")

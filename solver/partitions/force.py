@@ -36,6 +36,13 @@ class Force:
     def restore_broken(self, rows):
         """Take the broken bonds of a checkpoint (nothing breaks here)."""
 
+    def contact_history(self):
+        """The contacts' shear histories for a checkpoint (None: none kept)."""
+        return None
+
+    def restore_contacts(self, rows):
+        """Take the contacts' shear histories of a checkpoint (none here)."""
+
     def damage(self):
         """Per-node damage for the fields (None: nothing breaks)."""
         return None

@@ -236,15 +236,34 @@ class ContactSpec:
         "contact's tangent stiffness, m* the pair's reduced mass): a spring-dashpot; its "
         "dissipation enters the energy audit", 0.0, nonnegative=True)
     friction: float = key(
-        "Coulomb friction coefficient mu (0: none): the tangential force opposes the "
-        "sliding velocity v_t with min(mu f_n, c_t |v_t|), c_t = 2 zeta_t sqrt(k m*), no "
-        "shear history (LAMMPS's gran/hooke); it dissipates", 0.0, nonnegative=True)
+        "Coulomb friction coefficient mu (0: none); how the tangential force arises: "
+        "friction_model", 0.0, nonnegative=True)
+    friction_model: Literal["viscous", "history"] = key(
+        "viscous: the tangential force opposes the sliding velocity v_t with min(mu f_n, c_t "
+        "|v_t|), c_t = 2 zeta_t sqrt(k m*), no shear history (LAMMPS's gran/hooke); history: "
+        "a tangential spring k_t on the shear displacement accumulated since the contact began, "
+        "kept per pair across neighbour-list rebuilds, ranks and restarts, capped at mu f_n "
+        "(Coulomb sliding), with a dashpot c_t = 2 zeta_t sqrt(k_t m*) while it sticks "
+        "(Cundall-Strack; LAMMPS's gran/hooke/history)", "viscous")
+    tangential_stiffness: float = key(
+        "friction_model history: k_t / k, k the contact's normal tangent stiffness (LAMMPS's "
+        "default 2/7)", 2.0 / 7.0, positive=True)
     tangential_damping_ratio: float = key(
-        "zeta_t of the friction's viscous regularisation (friction > 0)", 0.5, positive=True)
+        "zeta_t of the tangential dashpot (friction > 0): the viscous friction's "
+        "regularisation, or the dashpot beside the history spring", 0.5, nonnegative=True)
     radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
                                "neighbours just touch at rest)", None, positive=True)
     skin: float | None = key("neighbour-list skin [m]: the k-d tree is rebuilt when a particle "
                              "has moved half of it; default 0.3 x radius", None, positive=True)
+
+    def validate(self, path):
+        if self.friction_model == "history" and not self.friction:
+            fail(f"{path}.friction_model", "history is the sticking and sliding of friction: "
+                 "give friction > 0")
+        if self.friction_model == "viscous" and not self.tangential_damping_ratio and \
+                self.friction:
+            fail(f"{path}.tangential_damping_ratio", "friction_model viscous needs it > 0 (the "
+                 "friction force is c_t |v_t| below mu f_n)")
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,38 @@ def test_the_halo_finds_every_contact_of_one_rank(runs):
     WORLD.barrier()
 
 
+@pytest.fixture(scope="module")
+def history_runs(tmp_path_factory):
+    """The bar with friction 0.02 on shear springs (friction_model history)."""
+    tmp = WORLD.bcast(tmp_path_factory.mktemp("history") if WORLD.rank == 0 else None)
+    return (stepped(halo_bar(tmp, f"hs_{WORLD.rank}", "history"), MPI.COMM_SELF),
+            stepped(halo_bar(tmp, "hp", "history"), WORLD))
+
+
+def test_shear_histories_cross_the_cuts_and_the_halo_rebuilds(history_runs):
+    """With shear springs kept per pair: at every sample the pieces' histories
+    (each pair counted once) are the 1-rank histories (the same pairs, their
+    shear displacements to 1e-12 of the largest) and the displacements agree
+    to 1e-12 of their largest; contacts slid, and the work of sliding summed
+    over the pieces (each pair's shared half per owned end) is the 1-rank
+    work."""
+    serial, parallel = history_runs
+    for k in range(len(SAMPLES)):
+        rows = np.concatenate(WORLD.allgather(parallel["shear"][k]))
+        one = serial["shear"][k]
+        assert len(rows) == len(one) > 50, k
+        rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
+        assert np.array_equal(rows[:, :2], one[:, :2])
+        xi = np.abs(one[:, 2:4]).max()
+        assert xi > 0 and np.abs(rows[:, 2:] - one[:, 2:]).max() <= 1e-12 * np.abs(one[:, 2:]).max()
+        u1, un = merged([serial["u"][k]]), merged(WORLD.allgather(parallel["u"][k]))
+        assert np.abs(u1 - un).max() <= 1e-12 * np.abs(u1).max(), k
+    assert parallel["builds"] == serial["builds"] > 2
+    slid = WORLD.allreduce(parallel["slid"])
+    assert serial["slid"] > 0 and abs(slid - serial["slid"]) <= 1e-9 * serial["slid"]
+    WORLD.barrier()
+
+
 def test_ranks_other_than_0_have_contacts_beyond_their_share(runs):
     """The old bug: a piece on rank r > 0 holds only its share of the model's
     bonds (those of its particles), and contact once gathered just the

@@ -1,0 +1,247 @@
+"""Contact friction with memory (model.lattice.contact.friction_model:
+history; solver/partitions/contact.py): the Cundall-Strack shear spring with
+Coulomb sliding, its history kept by particle ids across rebuilds, ranks and
+restarts (issue 25)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+R, K, MU, D = 1e-3, 2e7, 0.3, 1e-5          # radius, k_n, friction, overlap
+RATIO = 2.0 / 7.0
+M = np.array([2e-6, 6e-6])
+
+
+def pair(ids=None, zeta_t=0.0, dt=1e-9, zeta=0.0):
+    from solver.laws import CONTACT_LAWS, ContactSettings
+    from solver.partitions.contact import Contact
+    settings = ContactSettings(CONTACT_LAWS["linear"](K), R, 0.3 * R, zeta, MU, zeta_t,
+                               history=True, tangential_stiffness=RATIO)
+    return Contact(np.arange(2), settings, np.zeros(0, np.int64), np.zeros(0, np.int64), M,
+                   ids=ids, dt=dt)
+
+
+def force_on_1(c, x):
+    out = np.zeros((2, 2))
+    c.forces(x, np.zeros(0, bool), out, 2)
+    assert np.array_equal(out[0], -out[1])              # equal and opposite
+    return out[1]
+
+
+UNIT, TANG = np.array([0.6, 0.8]), np.array([-0.8, 0.6])
+RHO = 2 * R - D                          # the distance of the pressed pair
+
+
+def at(s, rho=RHO):
+    """Particle 1 pressed onto particle 0 (distance ``rho``), moved by the arc
+    s around it (its shear displacement s)."""
+    th = s / RHO
+    c, sn = np.cos(th), np.sin(th)
+    return np.array([[0.0, 0.0], rho * (c * UNIT + sn * TANG)])
+
+
+def along(f, x):
+    """The tangential component of force ``f`` on particle 1 at positions ``x``,
+    along the direction of growing s."""
+    n = x[1] / np.linalg.norm(x[1])
+    return float(np.dot(f, [-n[1], n[0]]))
+
+
+def test_the_shear_spring_sticks_then_slides_and_unloads_elastically():
+    """Moving particle 1 around particle 0 at a constant overlap in small
+    steps: the tangential force is -k_t s while k_t s < mu f_n (the stored
+    shear turned into each new tangent plane), then mu f_n (sliding, the work
+    mu f_n x slip dissipated); moving back unloads along k_t (hysteresis)."""
+    c = pair()
+    kt, cap = RATIO * K, MU * K * D
+    s_stick = cap / kt
+    path = np.concatenate([np.linspace(0, 3 * s_stick, 61),
+                           np.linspace(3 * s_stick, 2 * s_stick, 21)[1:]])
+    slipped = 0.0
+    for n, s in enumerate(path):
+        x = at(s)
+        f = force_on_1(c, x)
+        slipped += c._slipped
+        if n <= 20:                                          # s <= s_stick: sticking
+            assert abs(along(f, x) + kt * s) < 1e-6 * cap, n
+        elif n <= 60:                                        # sliding at mu f_n
+            assert abs(along(f, x) + cap) < 1e-6 * cap, n
+        else:                                                # back by b: mu f_n - k_t b
+            b = 3 * s_stick - s
+            assert abs(along(f, x) + cap - kt * b) < 1e-6 * cap, n
+        assert abs(np.dot(f, x[1]) / RHO - K * D) < 1e-9 * K * D       # the normal force
+    assert abs(slipped / (cap * 2 * s_stick) - 1) < 1e-6     # mu f_n x the slip (chords)
+    b = s_stick
+    assert abs(c.energy - 0.5 * K * D ** 2 - 0.5 * (cap - kt * b) ** 2 / kt) < 1e-9 * c.energy
+
+
+def test_the_cap_follows_the_normal_force():
+    """Sticking at half the Coulomb limit: pressing harder keeps the shear
+    force (no tangential motion); unloading to a quarter of the overlap
+    lowers the limit below it, and the contact slides to mu f_n."""
+    c = pair()
+    kt, cap = RATIO * K, MU * K * D
+    s = 0.5 * cap / kt
+    force_on_1(c, at(0.0))
+    x = at(s)                                          # (one chord: 1e-6 of the arc)
+    assert abs(along(force_on_1(c, x), x) + 0.5 * cap) < 1e-5 * cap
+    x = at(s, 2 * R - 2 * D)
+    assert abs(along(force_on_1(c, x), x) + 0.5 * cap) < 1e-5 * cap
+    x = at(s, 2 * R - 0.25 * D)
+    assert abs(along(force_on_1(c, x), x) + 0.25 * cap) < 1e-9 * cap
+    assert c._slipped > 0
+
+
+@pytest.mark.parametrize("swap", [False, True])
+def test_the_history_survives_a_rebuild_and_a_renumbering(swap):
+    """Rebuilding the search mid-way, with the particles' local order swapped
+    (their global ids kept), gives the forces of the run without a rebuild,
+    bitwise: the history is keyed and oriented by global ids."""
+    ref, c = pair(), pair()
+    s_path = np.concatenate([np.linspace(0, 2 * MU * D / RATIO, 30),
+                             np.linspace(2 * MU * D / RATIO, 0, 10)])
+    for n, s in enumerate(s_path):
+        f_ref = force_on_1(ref, at(s))
+        x = at(s)
+        if n == 12:
+            if swap:                                   # particle 1 becomes local index 0
+                c.renew(np.arange(2), M[::-1], None, ids=np.array([1, 0]))
+            else:
+                c.renew(np.arange(2), M, None)
+        if n >= 12 and swap:
+            out = np.zeros((2, 2))
+            c.forces(x[::-1], np.zeros(0, bool), out, 2)
+            f = out[0]
+        else:
+            f = force_on_1(c, x)
+        assert np.array_equal(f, f_ref), n
+
+
+def test_the_dashpot_beside_the_spring_and_the_work_of_sliding():
+    """Sticking: the tangential dashpot c_t = 2 zeta_t sqrt(k_t m*) opposes
+    the sliding velocity, limited so that spring and dashpot stay within
+    mu f_n; sliding: no dashpot, and viscous() reports the work of sliding
+    over the step as a power."""
+    dt = 1e-8
+    c = pair(zeta_t=0.5, dt=dt)
+    kt, cap = RATIO * K, MU * K * D
+    force_on_1(c, at(0.0))
+    x = at(0.2 * cap / kt)
+    force_on_1(c, x)                                    # sticking at 0.2 mu f_n
+    n = x[1] / RHO
+    tang = np.array([-n[1], n[0]])                      # the tangent there
+    w = 1e-3
+    out = np.zeros((2, 2))
+    power = c.viscous(np.array([[0.0, 0.0], w * tang]), out, 2)
+    ct = 2 * 0.5 * np.sqrt(kt * M[0] * M[1] / M.sum())
+    assert ct * w < 0.8 * cap
+    assert np.allclose(out[1], -ct * w * tang, rtol=1e-9) and np.allclose(out[0], -out[1])
+    assert abs(power / (ct * w ** 2) - 1) < 1e-12
+    out[:] = 0
+    big = 100.0                                          # the dashpot alone would exceed the room
+    c.viscous(np.array([[0.0, 0.0], big * tang]), out, 2)
+    assert abs(np.linalg.norm(out[1]) - 0.8 * cap) < 1e-6 * cap
+    force_on_1(c, at(1.5 * cap / kt))                   # sliding: the spring at mu f_n
+    slip = c._slipped
+    assert abs(slip - cap * 0.5 * cap / kt) < 1e-4 * slip          # (one chord)
+    out[:] = 0
+    power = c.viscous(np.array([[0.0, 0.0], w * tang]), out, 2)
+    assert np.allclose(out, 0.0) and abs(power - slip / dt) < 1e-9 * power
+
+
+@pytest.mark.parametrize("push, sticks", [(0.8, True), (1.5, False)])
+def test_static_friction_holds_a_load_below_mu_n(push, sticks):
+    """A particle pressed onto a fixed one by N and pushed sideways by F =
+    push x mu N, stepped with velocity Verlet (normal and tangential
+    dashpots): below mu N it comes to rest at F / k_t (static friction: the
+    viscous law creeps instead), above it slides off with acceleration
+    (F - mu N) / m."""
+    from solver.laws import CONTACT_LAWS, ContactSettings
+    from solver.partitions.contact import Contact
+    m = np.array([1e30, 1e-6])                  # particle 0 held (not stepped)
+    N = 10.0
+    settings = ContactSettings(CONTACT_LAWS["linear"](K), R, 0.3 * R, 0.7, MU, 0.7,
+                               history=True, tangential_stiffness=RATIO)
+    h = 0.05 * np.sqrt(1e-6 / K)
+    c = Contact(np.arange(2), settings, np.zeros(0, np.int64), np.zeros(0, np.int64), m, dt=h)
+    F = push * MU * N
+    load = np.array([F, -N])
+    x = np.array([[0.0, 0.0], [0.0, 2 * R - N / K]])
+    v, a = np.zeros((2, 2)), np.zeros((2, 2))
+    T = (400 if sticks else 15) * np.sqrt(1e-6 / K)     # sliding: to 0.01 R
+    steps = int(T / h)
+    half = None
+    for step in range(steps):
+        x[1] += h * v[1] + 0.5 * h * h * a[1]
+        v[1] += 0.5 * h * a[1]
+        out = np.zeros((2, 2))
+        c.forces(x, np.zeros(0, bool), out, 2)
+        c.viscous(v, out, 2)
+        a[1] = (out[1] + load) / m[1]
+        v[1] += 0.5 * h * a[1]
+        if step == steps // 2:
+            half = v[1, 0]
+    if sticks:
+        assert abs(x[1, 0] / (F / (RATIO * K)) - 1) < 0.02
+        assert abs(v[1, 0]) < 1e-3 * F / np.sqrt(K * 1e-6)
+    else:                                    # the acceleration over the second half
+        assert abs((v[1, 0] - half) / (0.5 * T) / ((F - MU * N) / m[1]) - 1) < 0.03
+
+
+@pytest.mark.parametrize("n, n_restart", [(None, None), (2, 1)])
+def test_a_run_with_shear_histories_restarts_to_the_uninterrupted_run(tmp_path, n, n_restart):
+    """tests/test_contact_halo.py's bar, whose contacts stick and slide
+    (friction 0.02 on shear springs): SIGTERMed after its 9th checkpoint and
+    restarted (on 1 rank, or run on 2 and restarted on 1), it ends as the
+    uninterrupted run did, every history to 1e-13 of its largest value (the checkpoint keeps every contact's shear
+    displacement and last separation, by particle ids; the restart builds
+    the contact search anew, which sums some forces in another order: the
+    frictionless bar differs by as much)."""
+    from test_checkpoints import interrupted_then_restarted
+    from test_contact_halo import halo_bar
+    raw = halo_bar(tmp_path, "bar", "history")
+    whole, again = interrupted_then_restarted(raw, tmp_path, raw["time"]["end"], n=n,
+                                              n_restart=n_restart)
+    assert set(whole) == set(again) and again["status"] == "completed"
+    assert whole["energy/dissipated"][-1] > 0.1 * whole["energy/external_work"][-1]
+    for key, x in whole.items():
+        if np.asarray(x).dtype.kind == "f":
+            scale = np.abs(x).max()
+            assert np.abs(x - again[key]).max() <= 1e-13 * scale, key
+
+
+def test_the_audit_closes_when_a_crack_closes_on_frictional_contacts(tmp_path):
+    """tests/test_bonds.py's closing crack with shear springs (friction 0.3,
+    normal dashpot 0.5): compression still passes the closed crack and
+    kinetic + strain (the springs' 1/2 k_t xi^2 included) + released +
+    dissipated (dashpots and sliding) = work to 1e-3."""
+    from test_bonds import crack
+    res = crack({"stiffness": 1.68e7, "damping_ratio": 0.5, "friction": 0.3,
+                 "friction_model": "history"}, tmp_path)
+    t, s = res.probes["C"]["t"], res.probes["C"]["stress"]
+    assert s[t > 7.0e-5].min() < -0.8 * 1.0e4 / 3.2e-4
+    e = res.energy
+    released = res.partitions["dem"]["released_energy"]
+    work = e["external_work"][-1]
+    assert e["dissipated"][-1] > 0
+    assert abs(e["total"][-1] + released + e["dissipated"][-1] - work) < 1e-3 * abs(work)
+
+
+@pytest.mark.parametrize("sets, message", [
+    ({"friction_model": "history"},
+     "model.lattice.contact.friction_model: history is the sticking and sliding of friction: "
+     "give friction > 0"),
+    ({"friction": 0.3, "tangential_damping_ratio": 0.0},
+     "model.lattice.contact.tangential_damping_ratio: friction_model viscous needs it > 0"),
+    ({"friction": 0.3, "friction_model": "memory"}, "model.lattice.contact.friction_model"),
+    ({"friction": 0.3, "friction_model": "history", "tangential_stiffness": 0.0},
+     "model.lattice.contact.tangential_stiffness"),
+])
+def test_bad_friction_input_is_one_line(sets, message, tmp_path):
+    """Exit 2, one line naming the key, no output file."""
+    from conftest import refused, write_scene
+    from test_bonds import nonlinear
+    raw = nonlinear()
+    raw["model"]["lattice"]["contact"] = {"stiffness": 1.68e7, **sets}
+    line = refused(write_scene(tmp_path / "bad.yaml", raw), [], tmp_path)
+    assert message in line, line
