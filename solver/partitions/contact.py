@@ -36,10 +36,12 @@ Distances are taken as (X_j - X_i) + (u_j - u_i) from the rest positions X
 and the displacements u, as the bonds take theirs (see
 :mod:`solver.partitions.bond_kernel`), never from the rounded sums X + u.
 
-Candidate pairs come from a k-d tree (scipy's cKDTree) over the particles
-within 2r + skin, rebuilt only when some particle has moved more than half
-the skin since the last build; the search and its arrays exist only in
-scenes with ``model.lattice.contact``.  On a dem partition split over ranks
+Candidate pairs come from a cell list over the particles within 2r + skin
+(the compiled search of :mod:`solver.partitions.contact_kernel`; the numpy
+reference path asks scipy's cKDTree, which finds the same pairs), rebuilt
+only when some particle has moved more than half the skin since the last
+build; the search and its arrays exist only in scenes with
+``model.lattice.contact``.  On a dem partition split over ranks
 the decision to rebuild is taken for all pieces at once, and each piece's
 particles then change with its halo (:mod:`solver.partitions.halo`).
 
@@ -52,6 +54,9 @@ with shear springs.
 from __future__ import annotations
 
 import numpy as np
+
+# the laws the compiled loops know (solver.partitions.contact_kernel), by name
+KERNEL_LAWS = {"linear": 0, "hertz": 1}
 
 # pair keys i * KEY + j of local indices: larger than any piece's position count
 KEY = np.int64(1) << 31
@@ -83,11 +88,14 @@ class Contact:
     (False: the caller does, for all pieces at once).  ``ids``: the global id
     of each local position (the shear history's keys; default the local
     index); ``dt``: the step, over which :meth:`viscous` spreads the work of
-    sliding as a power."""
+    sliding as a power.  ``compiled``: the loops of
+    :mod:`solver.partitions.contact_kernel` (False: numpy over arrays of
+    pairs, the reference they are tested against)."""
 
     def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None, rest=None,
-                 decides=True, ids=None, dt=None):
+                 decides=True, ids=None, dt=None, compiled=True):
         self.nodes = np.asarray(nodes, dtype=np.int64)
+        self._ordered = bool(np.all(np.diff(self.nodes) > 0))    # pairs keep their order
         self.law = settings.law
         self.radius, self.skin = settings.radius, settings.skin
         self.zeta, self.mu = settings.damping_ratio, settings.friction
@@ -108,7 +116,17 @@ class Contact:
         self._sorted_keys = key[self._key_order]
         self._u_built = None                          # displacements at the last build
         self._pairs = np.zeros((0, 2), dtype=np.int64)
+        self._mine = None                             # the candidates with an owned end
         self._last = None                  # (i, j, n, tangent k, f_n, shear, d) of the last forces
+        dim = rest.shape[1] if rest is not None else None
+        self._code = KERNEL_LAWS.get(self.law.name) if compiled and dim in (2, 3, None) else None
+        self.compiled = self._code is not None
+        if self.compiled:      # lazy: numba (about 1 s to import) loads only with contact
+            from solver.partitions import contact_kernel as kern
+            self._kernels = (None, None, kern.pairs_within, kern.largest_move)
+            self._loops = kern.LOOPS
+        self._eval = None                  # compiled: per candidate pair (see contact_kernel)
+        self._fresh = False                # compiled: _last not yet taken from _eval
         self.builds = 0
         self.energy = 0.0
 
@@ -127,8 +145,12 @@ class Contact:
         or a particle has moved more than half the skin since."""
         if self._u_built is None:
             return True
-        moved = np.max(np.linalg.norm(u[self.nodes] - self._u_built, axis=1), initial=0.0)
-        return bool(moved > 0.5 * self.skin)
+        if self.compiled:
+            moved = self._kernels[3](u, self.nodes, self._u_built)
+        else:
+            step = u[self.nodes] - self._u_built
+            moved = np.max(np.einsum("pc,pc->p", step, step), initial=0.0)
+        return bool(moved > (0.5 * self.skin) ** 2)
 
     def renew(self, nodes, mass, rest, ids=None):
         """New contact particles ``nodes`` (local indices) with the masses, rest
@@ -138,6 +160,7 @@ class Contact:
         if self.history:
             self._pending = self.table()
         self.nodes = np.asarray(nodes, dtype=np.int64)
+        self._ordered = bool(np.all(np.diff(self.nodes) > 0))
         self.mass, self.rest = mass, rest
         if ids is not None:
             self.ids = ids
@@ -146,25 +169,73 @@ class Contact:
     def build(self, u):
         """The candidate pairs at displacements ``u``, and those with an owned
         end with their bonds and rest separations (what every step reads)."""
-        from scipy.spatial import cKDTree  # lazy: scipy loads only where it is used
-        pairs = cKDTree(self._points(u)).query_pairs(self.reach, output_type="ndarray")
-        self._pairs = self.nodes[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
+        if self.compiled:                  # a cell list: pairs come sorted
+            pairs = self._kernels[2](self._points(u), self.reach)
+        else:
+            from scipy.spatial import cKDTree  # lazy: scipy loads only where it is used
+            pairs = cKDTree(self._points(u)).query_pairs(self.reach, output_type="ndarray")
+        pairs = self.nodes[pairs] if len(pairs) else np.zeros((0, 2), dtype=np.int64)
+        # by first particle, then second: the loops then read the positions in order
+        if not self._ordered or not self.compiled:
+            pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+        self._pairs = pairs
         # each candidate pair's bond (-1: none), found once per build
-        i, j = self._pairs[:, 0], self._pairs[:, 1]
-        key = np.minimum(i, j) * KEY + np.maximum(i, j)
-        at = np.minimum(np.searchsorted(self._sorted_keys, key), max(len(self._sorted_keys) - 1, 0))
-        found = self._sorted_keys[at] == key if len(self._sorted_keys) else np.zeros(len(key), bool)
-        self._pair_bond = np.where(found, self._key_order[at] if len(self._key_order) else -1, -1)
-        if self.history:
-            table = self._pending if self._pending is not None else self.table()
+        i, j = pairs[:, 0], pairs[:, 1]
+        if len(self._sorted_keys):
+            key = np.minimum(i, j) * KEY + np.maximum(i, j)
+            at = np.minimum(np.searchsorted(self._sorted_keys, key), len(self._sorted_keys) - 1)
+            found = self._sorted_keys[at] == key
+            self._pair_bond = np.where(found, self._key_order[at], -1)
+        else:
+            self._pair_bond = np.full(len(i), -1, dtype=np.int64)
+        before = self._mine if self.history and self._pending is None and \
+            self._mine is not None else None
         self._mine = self._subset((i < self.owned) | (j < self.owned))
         if self.history:
-            self._take_over(table, u.shape[1])
+            if before is None:             # the local numbering changed: by global ids
+                self._take_over(self.table(), u.shape[1])
+            else:
+                self._carry(before, u.shape[1])
             self._pending = None
+        if self.compiled:
+            self._allocate(u.shape[1])
         self._u_built = u[self.nodes].copy()
         self.builds += 1
 
-    # ---------------------------------------------------------- shear history
+    def _allocate(self, dim):
+        """The compiled loops' arrays for the pairs with an owned end; with
+        shear springs the separations are the histories' (the loop advances
+        them)."""
+        i, j, bond, with_bond, rest = self._mine
+        m = i.size
+        self._kernels = self._loops[dim] + self._kernels[2:]      # (2D and 3D only)
+        none = np.zeros((0, dim))
+        xi, d, live = self._shear if self.history else (none, np.zeros((m, dim)),
+                                                        np.zeros(0, bool))
+        self._eval = dict(pi=np.ascontiguousarray(i), pj=np.ascontiguousarray(j),
+                          bond=np.ascontiguousarray(bond) if with_bond.size else
+                          np.zeros(0, np.int64),
+                          rest=np.ascontiguousarray(rest) if rest is not None else none,
+                          xi=xi, live=live, d=d, touch=np.zeros(m, bool), dist=np.ones(m),
+                          sticks=np.zeros(m, bool))
+
+    def _evaluated(self):
+        """(i, j, n, k, f_n, shear, d) of the pairs touching at the last
+        :meth:`forces` (None: none), taken from the compiled loop's arrays
+        when it ran."""
+        if self._fresh:
+            e = self._eval
+            at = np.flatnonzero(e["touch"])
+            self._fresh = False
+            self._last = None
+            if at.size:
+                d, dist = e["d"][at], e["dist"][at]
+                f, k, _ = self.law.evaluate(2 * self.radius - dist)
+                shear = ((-self.ratio * k)[:, None] * e["xi"][at], e["sticks"][at]) \
+                    if self.history else None
+                self._last = (e["pi"][at], e["pj"][at], d / dist[:, None], k, f, shear, d)
+        return self._last
+
     def _global(self, i, j):
         """Pair keys min * KEY + max of the global ids of local pairs (i, j), and
         each pair's orientation (-1 where the global order is j, i)."""
@@ -194,6 +265,22 @@ class Contact:
         order = np.argsort(keys)
         self._pending = (np.asarray(keys, np.int64)[order], xi[order], sep[order])
         self._u_built = None
+
+    def _carry(self, before, dim):
+        """The new candidate pairs' histories from those of the last build
+        (``before``: its pairs with an owned end), in the same local numbering:
+        both sorted by (i, j)."""
+        i, j = self._mine[0], self._mine[1]
+        new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim))
+        live = np.zeros(i.size, bool)
+        if self._shear is not None and before[0].size and i.size:
+            xi, sep, was = self._shear
+            old = before[0] * KEY + before[1]
+            key = i * KEY + j
+            at = np.minimum(np.searchsorted(old, key), old.size - 1)
+            live = (old[at] == key) & was[at]
+            new_xi[live], new_sep[live] = xi[at[live]], sep[at[live]]
+        self._shear = (new_xi, new_sep, live)
 
     def _take_over(self, table, dim):
         """The new candidate pairs' histories from ``table`` (by global ids)."""
@@ -270,8 +357,9 @@ class Contact:
         _, _, d, dist, overlap, _ = self._touching(u, alive, node)
         f, _, _ = self.law.evaluate(overlap)
         total = float(-np.sum((f / dist) * d[:, c] ** 2))
-        if self._last is not None and self._last[5] is not None:
-            i, j, _, _, _, (spring, _), d = self._last
+        last = self._evaluated()
+        if last is not None and last[5] is not None:
+            i, j, _, _, _, (spring, _), d = last
             at = (i == node) | (j == node)
             total -= float(np.sum(spring[at, c] * d[at, c]))
         return total
@@ -281,6 +369,14 @@ class Contact:
         ``rows``); ``alive``: the bonds' live flags (a live bond excludes its pair)."""
         if self.decides and self.stale(u):
             self.build(u)
+        if self.compiled:
+            e = self._eval
+            self.energy, self._slipped = self._kernels[0](
+                e["pi"], e["pj"], e["bond"], alive, e["rest"], u, self.radius, self._code,
+                self.law.stiffness, self.history, self.ratio, self.mu, e["xi"], e["live"],
+                e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned)
+            self._fresh = True
+            return
         i, j, d, dist, overlap, at = self._touching(u, alive)
         if not i.size:
             self.energy, self._last, self._slipped = 0.0, None, 0.0
@@ -304,9 +400,10 @@ class Contact:
 
     def touching(self):
         """(i, j) local indices of the pairs in contact at the last :meth:`forces`."""
-        if self._last is None:
+        last = self._evaluated()
+        if last is None:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        return self._last[0], self._last[1]
+        return last[0], last[1]
 
     @property
     def dissipative(self) -> bool:
@@ -316,7 +413,18 @@ class Contact:
         """Add the dashpot and friction forces of the contacts of the last
         :meth:`forces` at velocities ``v`` to ``out``; returns their dissipated
         power [W] (this piece's share)."""
-        if self._last is None or not self.dissipative:
+        if not self.dissipative:
+            return 0.0
+        if self.history and not (self.zeta or self.zeta_t):      # springs without dashpots
+            return self._slipped / self.dt if self._slipped else 0.0
+        if self.compiled:
+            e = self._eval
+            total = self._kernels[1](e["pi"], e["pj"], e["touch"], e["d"], e["dist"],
+                                     self.radius, self._code, self.law.stiffness, self.history,
+                                     e["xi"], e["sticks"], self.mass, v, self.zeta, self.mu,
+                                     self.zeta_t, self.ratio, out, rows, self.owned)
+            return total + self._slipped / self.dt if self._slipped else total
+        if self._last is None:
             return 0.0
         i, j, unit, k, fn, shear, _ = self._last
         mi, mj = self.mass[i], self.mass[j]

@@ -1,0 +1,326 @@
+"""The compiled contact loops (numba): one pass over the candidate pairs for
+the contact forces, one over the touching pairs for the dashpots and friction.
+
+The same arithmetic as the numpy path of
+:class:`solver.partitions.contact.Contact` (tests/test_contact_history.py
+checks the two agree to round-off), which gathers, multiplies and scatters
+over arrays of pairs: here each pair is read once and its force added to its
+two rows (rows >= ``rows`` are not this piece's; the pairs come sorted by
+their first particle, whose sum over its run stays in a buffer).  What later
+calls need of the evaluation is kept per candidate pair and no more: whether
+it touches, its separation d = x_j - x_i (which is also the last separation
+the shear history advances from), its distance and whether its shear spring
+sticks; the normal force and stiffness and the spring's force are
+recomputed from them.
+``law``: 0 linear (f = s d), 1 hertz (f = s d^1.5): the codes of
+:data:`solver.partitions.contact.KERNEL_LAWS`; see solver.laws.
+benchmarks/bench_granular.py measures both paths against LAMMPS.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _law(law, stiff, overlap):
+    """(force, tangent stiffness, energy) of the normal law at ``overlap``."""
+    if law == 0:
+        return stiff * overlap, stiff, 0.5 * stiff * overlap * overlap
+    root = np.sqrt(overlap)
+    return stiff * overlap * root, 1.5 * stiff * root, 0.4 * stiff * overlap * overlap * root
+
+
+def loops(dim: int):
+    """(contact_forces, contact_viscous) compiled for ``dim`` components: a
+    constant the compiler unrolls the component loops with (each dimension
+    compiles and caches its own)."""
+
+    @numba.njit(cache=True, nogil=True, boundscheck=False)
+    def contact_forces(pi, pj, bond, alive, rest, u, radius, law, stiff, history, ratio, mu, xi,
+                       live, touch, d, dist, sticks, out, rows, owned):
+        """Add the contact forces of the candidate pairs (pi, pj), sorted by pi,
+        at displacements ``u`` (positions X + u; ``rest``: X_j - X_i per pair, or
+        an empty array when ``u`` holds positions; ``bond``: each pair's bond or
+        -1, an empty array when there are none) to ``out``; returns (energy,
+        work of sliding), this piece's shares (half per end below ``owned``).
+        ``d`` holds each pair's separation of the last call and receives this
+        call's; with ``history`` the shear displacements ``xi`` of the pairs
+        ``live`` (touching at the last call) advance from it to this call."""
+        with_rest = rest.shape[0] > 0
+        with_bonds = bond.shape[0] > 0
+        energy = 0.0
+        slipped = 0.0
+        two_r = 2.0 * radius
+        step = np.zeros(dim)
+        run = np.zeros(dim)                        # the sum on row pi[p] over its run of pairs
+        cur = -1
+        for p in range(pi.size):
+            a, b = pi[p], pj[p]
+            if a != cur:
+                if 0 <= cur < rows:
+                    for c in range(dim):
+                        out[cur, c] += run[c]
+                cur = a
+                for c in range(dim):
+                    run[c] = 0.0
+            s = 0.0
+            for c in range(dim):
+                x = u[b, c] - u[a, c]
+                if with_rest:
+                    x += rest[p, c]
+                step[c] = x - d[p, c]              # the change since the last call
+                d[p, c] = x
+                s += x * x
+            r = np.sqrt(s)
+            overlap = two_r - r
+            if overlap <= 0.0 or r <= 0.0 or (with_bonds and bond[p] >= 0 and alive[bond[p]]):
+                touch[p] = False
+                if history:
+                    live[p] = False
+                continue
+            touch[p] = True
+            dist[p] = r
+            inv = 1.0 / r
+            f, kp, e = _law(law, stiff, overlap)
+            share = 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0))
+            shrink = 0.0
+            kt = ratio * kp
+            if history:
+                length2 = 0.0
+                if live[p]:        # xi turned into the tangent plane (its length kept), plus
+                    proj = 0.0     # the tangential part of the separation's change
+                    held = 0.0
+                    step_n = 0.0
+                    for c in range(dim):
+                        proj += xi[p, c] * d[p, c]
+                        held += xi[p, c] * xi[p, c]
+                        step_n += step[c] * d[p, c]
+                    proj *= inv
+                    step_n *= inv
+                    turned = held - proj * proj
+                    scale = np.sqrt(held / turned) if turned > 0.0 else 0.0
+                    for c in range(dim):
+                        n = d[p, c] * inv
+                        x = (xi[p, c] - proj * n) * scale + (step[c] - step_n * n)
+                        xi[p, c] = x
+                        length2 += x * x
+                else:
+                    for c in range(dim):
+                        xi[p, c] = 0.0
+                cap = mu * f
+                length = np.sqrt(length2)
+                sticks[p] = kt * length <= cap
+                shrink = 1.0
+                if not sticks[p]:
+                    slipped += share * cap * (length - cap / kt)
+                    shrink = cap / (kt * length)
+                    length *= shrink
+                e += 0.5 * kt * length * length
+                live[p] = True
+            energy += share * e
+            fr = f * inv
+            for c in range(dim):
+                g = fr * d[p, c]
+                if history:
+                    x = xi[p, c] * shrink
+                    xi[p, c] = x
+                    g -= kt * x
+                if b < rows:
+                    out[b, c] += g
+                run[c] -= g
+        if 0 <= cur < rows:
+            for c in range(dim):
+                out[cur, c] += run[c]
+        return energy, slipped
+
+
+    @numba.njit(cache=True, nogil=True, boundscheck=False)
+    def contact_viscous(pi, pj, touch, d, dist, radius, law, stiff, history, xi, sticks, mass, v,
+                        zeta, mu, zeta_t, ratio, out, rows, owned):
+        """Add the dashpot and friction forces of the pairs touching at the last
+        :func:`contact_forces` at velocities ``v`` to ``out``; returns their
+        dissipated power (this piece's share).  Without ``history`` friction is
+        min(mu f_n, c_t |v_t|) against the sliding velocity; with it, a dashpot
+        beside a sticking spring, the two together at most mu f_n, nothing
+        beside a sliding one."""
+        power = 0.0
+        force = np.zeros(dim)
+        vt = np.zeros(dim)
+        for p in range(pi.size):
+            if not touch[p]:
+                continue
+            a, b = pi[p], pj[p]
+            ma, mb = mass[a], mass[b]
+            r = dist[p]
+            fn, kp, _ = _law(law, stiff, 2.0 * radius - r)
+            root = np.sqrt(kp * ma * mb / (ma + mb))
+            vn = 0.0
+            for c in range(dim):
+                vn += (v[b, c] - v[a, c]) * d[p, c]
+            vn /= r
+            pw = 0.0
+            for c in range(dim):
+                force[c] = 0.0
+            if zeta != 0.0:
+                cn = 2.0 * zeta * root
+                for c in range(dim):
+                    force[c] -= cn * vn * d[p, c] / r
+                pw += cn * vn * vn
+            if mu != 0.0:
+                speed = 0.0
+                for c in range(dim):
+                    vt[c] = (v[b, c] - v[a, c]) - vn * d[p, c] / r
+                    speed += vt[c] * vt[c]
+                speed = np.sqrt(speed)
+                if not history:
+                    ft = min(mu * fn, 2.0 * zeta_t * root * speed)
+                elif sticks[p]:
+                    held = 0.0
+                    for c in range(dim):
+                        held += xi[p, c] * xi[p, c]
+                    room = max(mu * fn - ratio * kp * np.sqrt(held), 0.0)
+                    ft = min(room, 2.0 * zeta_t * np.sqrt(ratio) * root * speed)
+                else:
+                    ft = 0.0
+                if speed > 0.0:
+                    for c in range(dim):
+                        force[c] -= ft / speed * vt[c]
+                pw += ft * speed
+            for c in range(dim):
+                if b < rows:
+                    out[b, c] += force[c]
+                if a < rows:
+                    out[a, c] -= force[c]
+            power += 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0)) * pw
+        return power
+
+    return contact_forces, contact_viscous
+
+
+LOOPS = {2: loops(2), 3: loops(3)}
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def _cells(x, reach):
+    """Cells of side >= ``reach`` over the points ``x``: (cell of each point,
+    first point of each cell in ``order``, the points by cell, cells per axis)."""
+    n, dim = x.shape
+    lo = np.empty(dim)
+    hi = np.empty(dim)
+    for c in range(dim):
+        lo[c] = x[:, c].min()
+        hi[c] = x[:, c].max()
+    side = reach
+    total = 1.0
+    for c in range(dim):
+        total *= (hi[c] - lo[c]) / side + 1.0
+    if total > 4.0 * n + 64.0:                 # sparse points: larger cells, bounded memory
+        side *= (total / (4.0 * n + 64.0)) ** (1.0 / dim)
+    shape = np.empty(dim, np.int64)
+    for c in range(dim):
+        shape[c] = int((hi[c] - lo[c]) / side) + 1
+    cell = np.empty(n, np.int64)
+    for p in range(n):
+        at = 0
+        for c in range(dim):
+            at = at * shape[c] + min(int((x[p, c] - lo[c]) / side), shape[c] - 1)
+        cell[p] = at
+    n_cells = 1
+    for c in range(dim):
+        n_cells *= shape[c]
+    start = np.zeros(n_cells + 1, np.int64)
+    for p in range(n):
+        start[cell[p] + 1] += 1
+    for q in range(n_cells):
+        start[q + 1] += start[q]
+    fill = start[:-1].copy()
+    order = np.empty(n, np.int64)
+    for p in range(n):
+        order[fill[cell[p]]] = p
+        fill[cell[p]] += 1
+    return cell, start, order, shape
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def _scan(x, reach, cell, start, order, shape, pairs, count_only):
+    """Pairs (p, q), p < q, of points within ``reach``: their number, or (with
+    ``pairs``) written by p, then q.  Each point looks into its cell and the
+    3^dim - 1 around it."""
+    n, dim = x.shape
+    r2 = reach * reach
+    stride = np.ones(dim, np.int64)
+    for c in range(dim - 2, -1, -1):
+        stride[c] = stride[c + 1] * shape[c + 1]
+    coord = np.empty(dim, np.int64)
+    k = 0
+    for p in range(n):
+        rest = cell[p]
+        for c in range(dim):
+            coord[c] = rest // stride[c]
+            rest -= coord[c] * stride[c]
+        first = k
+        for offset in range(3 ** dim):
+            o = offset
+            at = 0
+            inside = True
+            for c in range(dim):
+                step = o % 3 - 1
+                o //= 3
+                q = coord[c] + step
+                if q < 0 or q >= shape[c]:
+                    inside = False
+                    break
+                at += q * stride[c]
+            if not inside:
+                continue
+            for s in range(start[at], start[at + 1]):
+                q = order[s]
+                if q <= p:
+                    continue
+                d2 = 0.0
+                for c in range(dim):
+                    t = x[q, c] - x[p, c]
+                    d2 += t * t
+                if d2 <= r2:
+                    if not count_only:
+                        pairs[k, 0] = p
+                        pairs[k, 1] = q
+                    k += 1
+        if not count_only:                     # this point's partners in order
+            for a in range(first + 1, k):
+                q = pairs[a, 1]
+                b = a - 1
+                while b >= first and pairs[b, 1] > q:
+                    pairs[b + 1, 1] = pairs[b, 1]
+                    b -= 1
+                pairs[b + 1, 1] = q
+    return k
+
+
+def pairs_within(x, reach):
+    """The pairs (p, q), p < q, of rows of ``x`` [n, dim] at most ``reach``
+    apart, sorted by p then q: a cell list (cells of side >= reach), the
+    k-d tree's query_pairs compiled for what the contact search asks."""
+    x = np.ascontiguousarray(x, dtype=float)
+    if len(x) < 2:
+        return np.zeros((0, 2), np.int64)
+    cell, start, order, shape = _cells(x, reach)
+    n = _scan(x, reach, cell, start, order, shape, np.zeros((0, 2), np.int64), True)
+    pairs = np.empty((n, 2), np.int64)
+    _scan(x, reach, cell, start, order, shape, pairs, False)
+    return pairs
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def largest_move(u, nodes, built):
+    """max over ``nodes`` of |u[node] - built[k]|^2 (the search's staleness)."""
+    worst = 0.0
+    dim = u.shape[1]
+    for k in range(nodes.size):
+        s = 0.0
+        for c in range(dim):
+            t = u[nodes[k], c] - built[k, c]
+            s += t * t
+        worst = max(worst, s)
+    return worst
