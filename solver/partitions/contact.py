@@ -122,9 +122,9 @@ class Contact:
         self._code = KERNEL_LAWS.get(self.law.name) if compiled and dim in (2, 3, None) else None
         self.compiled = self._code is not None
         if self.compiled:      # lazy: numba (about 1 s to import) loads only with contact
-            from solver.partitions import contact_kernel as kern
-            self._kernels = (None, None, kern.pairs_within, kern.largest_move)
-            self._loops = kern.LOOPS
+            from solver.partitions import contact_kernel
+            self._kern = contact_kernel
+            self._forces = self._viscous = None       # the loops of the dimension (_allocate)
         self._eval = None                  # compiled: per candidate pair (see contact_kernel)
         self._fresh = False                # compiled: _last not yet taken from _eval
         self.builds = 0
@@ -146,7 +146,7 @@ class Contact:
         if self._u_built is None:
             return True
         if self.compiled:
-            moved = self._kernels[3](u, self.nodes, self._u_built)
+            moved = self._kern.largest_move(u, self.nodes, self._u_built)
         else:
             step = u[self.nodes] - self._u_built
             moved = np.max(np.einsum("pc,pc->p", step, step), initial=0.0)
@@ -170,7 +170,7 @@ class Contact:
         """The candidate pairs at displacements ``u``, and those with an owned
         end with their bonds and rest separations (what every step reads)."""
         if self.compiled:                  # a cell list: pairs come sorted
-            pairs = self._kernels[2](self._points(u), self.reach)
+            pairs = self._kern.pairs_within(self._points(u), self.reach)
         else:
             from scipy.spatial import cKDTree  # lazy: scipy loads only where it is used
             pairs = cKDTree(self._points(u)).query_pairs(self.reach, output_type="ndarray")
@@ -208,7 +208,7 @@ class Contact:
         them)."""
         i, j, bond, with_bond, rest = self._mine
         m = i.size
-        self._kernels = self._loops[dim] + self._kernels[2:]      # (2D and 3D only)
+        self._forces, self._viscous = self._kern.LOOPS[dim]        # (2D and 3D only)
         none = np.zeros((0, dim))
         xi, d, live = self._shear if self.history else (none, np.zeros((m, dim)),
                                                         np.zeros(0, bool))
@@ -271,16 +271,22 @@ class Contact:
         (``before``: its pairs with an owned end), in the same local numbering:
         both sorted by (i, j)."""
         i, j = self._mine[0], self._mine[1]
-        new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim))
-        live = np.zeros(i.size, bool)
-        if self._shear is not None and before[0].size and i.size:
+        if self._shear is None:
+            self._shear = (np.zeros((i.size, dim)), np.zeros((i.size, dim)),
+                           np.zeros(i.size, bool))
+        elif self.compiled:                                   # one merge
+            self._shear = self._kern.carry(before[0], before[1], *self._shear, i, j)
+        else:
             xi, sep, was = self._shear
-            old = before[0] * KEY + before[1]
-            key = i * KEY + j
-            at = np.minimum(np.searchsorted(old, key), old.size - 1)
-            live = (old[at] == key) & was[at]
-            new_xi[live], new_sep[live] = xi[at[live]], sep[at[live]]
-        self._shear = (new_xi, new_sep, live)
+            new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim))
+            live = np.zeros(i.size, bool)
+            if before[0].size and i.size:
+                old = before[0] * KEY + before[1]
+                key = i * KEY + j
+                at = np.minimum(np.searchsorted(old, key), old.size - 1)
+                live = (old[at] == key) & was[at]
+                new_xi[live], new_sep[live] = xi[at[live]], sep[at[live]]
+            self._shear = (new_xi, new_sep, live)
 
     def _take_over(self, table, dim):
         """The new candidate pairs' histories from ``table`` (by global ids)."""
@@ -371,7 +377,7 @@ class Contact:
             self.build(u)
         if self.compiled:
             e = self._eval
-            self.energy, self._slipped = self._kernels[0](
+            self.energy, self._slipped = self._forces(
                 e["pi"], e["pj"], e["bond"], alive, e["rest"], u, self.radius, self._code,
                 self.law.stiffness, self.history, self.ratio, self.mu, e["xi"], e["live"],
                 e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned)
@@ -419,10 +425,10 @@ class Contact:
             return self._slipped / self.dt if self._slipped else 0.0
         if self.compiled:
             e = self._eval
-            total = self._kernels[1](e["pi"], e["pj"], e["touch"], e["d"], e["dist"],
-                                     self.radius, self._code, self.law.stiffness, self.history,
-                                     e["xi"], e["sticks"], self.mass, v, self.zeta, self.mu,
-                                     self.zeta_t, self.ratio, out, rows, self.owned)
+            total = self._viscous(e["pi"], e["pj"], e["touch"], e["d"], e["dist"], self.radius,
+                                  self._code, self.law.stiffness, self.history, e["xi"],
+                                  e["sticks"], self.mass, v, self.zeta, self.mu, self.zeta_t,
+                                  self.ratio, out, rows, self.owned)
             return total + self._slipped / self.dt if self._slipped else total
         if self._last is None:
             return 0.0

@@ -243,16 +243,23 @@ def _cells(x, reach):
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _scan(x, reach, cell, start, order, shape, pairs, count_only):
-    """Pairs (p, q), p < q, of points within ``reach``: their number, or (with
-    ``pairs``) written by p, then q.  Each point looks into its cell and the
-    3^dim - 1 around it."""
+def _scan(x, xs, reach, cell, start, order, shape):
+    """The pairs (p, q), p < q, of points within ``reach``, by p, then q: each
+    point looks into its cell and the 3^dim - 1 around it (``xs``: the points
+    in cell order, read there); the buffer doubles when it fills."""
     n, dim = x.shape
     r2 = reach * reach
     stride = np.ones(dim, np.int64)
     for c in range(dim - 2, -1, -1):
         stride[c] = stride[c + 1] * shape[c + 1]
+    steps = np.empty((3 ** dim, dim), np.int64)          # the neighbour cells' offsets
+    for offset in range(3 ** dim):
+        o = offset
+        for c in range(dim):
+            steps[offset, c] = o % 3 - 1
+            o //= 3
     coord = np.empty(dim, np.int64)
+    pairs = np.empty((4 * n + 16, 2), np.int64)
     k = 0
     for p in range(n):
         rest = cell[p]
@@ -261,13 +268,10 @@ def _scan(x, reach, cell, start, order, shape, pairs, count_only):
             rest -= coord[c] * stride[c]
         first = k
         for offset in range(3 ** dim):
-            o = offset
             at = 0
             inside = True
             for c in range(dim):
-                step = o % 3 - 1
-                o //= 3
-                q = coord[c] + step
+                q = coord[c] + steps[offset, c]
                 if q < 0 or q >= shape[c]:
                     inside = False
                     break
@@ -280,22 +284,24 @@ def _scan(x, reach, cell, start, order, shape, pairs, count_only):
                     continue
                 d2 = 0.0
                 for c in range(dim):
-                    t = x[q, c] - x[p, c]
+                    t = xs[s, c] - x[p, c]
                     d2 += t * t
                 if d2 <= r2:
-                    if not count_only:
-                        pairs[k, 0] = p
-                        pairs[k, 1] = q
+                    if k == pairs.shape[0]:
+                        grown = np.empty((2 * k, 2), np.int64)
+                        grown[:k] = pairs
+                        pairs = grown
+                    pairs[k, 0] = p
+                    pairs[k, 1] = q
                     k += 1
-        if not count_only:                     # this point's partners in order
-            for a in range(first + 1, k):
-                q = pairs[a, 1]
-                b = a - 1
-                while b >= first and pairs[b, 1] > q:
-                    pairs[b + 1, 1] = pairs[b, 1]
-                    b -= 1
-                pairs[b + 1, 1] = q
-    return k
+        for a in range(first + 1, k):          # this point's partners in order
+            q = pairs[a, 1]
+            b = a - 1
+            while b >= first and pairs[b, 1] > q:
+                pairs[b + 1, 1] = pairs[b, 1]
+                b -= 1
+            pairs[b + 1, 1] = q
+    return pairs[:k].copy()
 
 
 def pairs_within(x, reach):
@@ -306,10 +312,29 @@ def pairs_within(x, reach):
     if len(x) < 2:
         return np.zeros((0, 2), np.int64)
     cell, start, order, shape = _cells(x, reach)
-    n = _scan(x, reach, cell, start, order, shape, np.zeros((0, 2), np.int64), True)
-    pairs = np.empty((n, 2), np.int64)
-    _scan(x, reach, cell, start, order, shape, pairs, False)
-    return pairs
+    return _scan(x, x[order], reach, cell, start, order, shape)
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def carry(old_i, old_j, xi, sep, live, new_i, new_j):
+    """The shear histories (xi, last separation, live) of new pairs (new_i,
+    new_j) from those of old pairs (old_i, old_j), both sorted by (i, j): one
+    merge; a new pair not among the old ones starts without history."""
+    m, dim = new_i.size, xi.shape[1]
+    new_xi = np.zeros((m, dim))
+    new_sep = np.zeros((m, dim))
+    new_live = np.zeros(m, np.bool_)
+    o = 0
+    for p in range(m):
+        a, b = new_i[p], new_j[p]
+        while o < old_i.size and (old_i[o] < a or (old_i[o] == a and old_j[o] < b)):
+            o += 1
+        if o < old_i.size and old_i[o] == a and old_j[o] == b and live[o]:
+            new_live[p] = True
+            for c in range(dim):
+                new_xi[p, c] = xi[o, c]
+                new_sep[p, c] = sep[o, c]
+    return new_xi, new_sep, new_live
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
