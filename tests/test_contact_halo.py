@@ -50,7 +50,7 @@ def halo_bar(tmp, name: str, friction: str | None = None) -> dict:
 def stepped(raw, comm) -> dict:
     """``raw`` stepped on ``comm`` to each of SAMPLES: this piece's contact
     pairs (global ids, those it counts), owned displacements ({id: u}) and
-    the largest rest distance of its touching pairs [a] at each, its k-d tree
+    the largest rest distance of its touching pairs [a] at each, its search
     builds and halo sizes, the particles it sees, and its contacts with a
     particle outside its share of the model's bonds."""
     from solver import scene as scene_mod

@@ -262,7 +262,7 @@ def test_the_compiled_loops_match_the_numpy_reference(dim, law, model):
     """A jittered packing stepped with velocity Verlet: at every step the
     compiled loops' contact forces, dashpot and friction forces, energy,
     work of sliding and touching pairs equal the numpy path's (forces to
-    1e-12 of the largest), through k-d tree rebuilds; contacts slide."""
+    1e-12 of the largest), through search rebuilds; contacts slide."""
     from solver.laws import CONTACT_LAWS, ContactSettings
     from solver.partitions.contact import Contact
     X, v = jittered(12 if dim == 2 else 6, dim)

@@ -94,7 +94,7 @@ class Report:
 def bond_attrs(part) -> dict:
     """Breakable bonds of a piece: how many broke, the energy they released;
     with contact, the pairs in contact at the end (each counted by one
-    piece), the k-d tree builds and the particles of the piece's halo."""
+    piece), the contact search builds and the particles of the piece's halo."""
     force = part.force
     if not force.bonded:
         return {}

@@ -84,7 +84,7 @@ class Contact:
     halo: :mod:`solver.partitions.halo`).
     ``rest``: the rest positions X of the local positions; the methods then
     take displacements u (without it, X = 0 and they take positions).
-    ``decides``: :meth:`forces` rebuilds the tree itself when it is stale
+    ``decides``: :meth:`forces` rebuilds the search itself when it is stale
     (False: the caller does, for all pieces at once).  ``ids``: the global id
     of each local position (the shear history's keys; default the local
     index); ``dt``: the step, over which :meth:`viscous` spreads the work of
@@ -141,7 +141,7 @@ class Contact:
         return pts + self.rest[self.nodes] if self.rest is not None else pts
 
     def stale(self, u) -> bool:
-        """Whether the tree must be rebuilt at displacements ``u``: never built,
+        """Whether the search must be rebuilt at displacements ``u``: never built,
         or a particle has moved more than half the skin since."""
         if self._u_built is None:
             return True
@@ -155,7 +155,7 @@ class Contact:
     def renew(self, nodes, mass, rest, ids=None):
         """New contact particles ``nodes`` (local indices) with the masses, rest
         positions and global ids of every local position (a piece's halo
-        changed); the tree is then built by :meth:`build`, which takes the
+        changed); the search is then built by :meth:`build`, which takes the
         shear histories over by global ids."""
         if self.history:
             self._pending = self.table()

@@ -79,12 +79,12 @@ class DemPartition(Partition):
             elif mu:
                 dash += " (viscous, no shear history)"
             strain += (f"; {law.name} contact of unbonded particles (radius {contact.radius:g} m, "
-                       f"stiffness {law.stiffness:g} {law.unit}{dash}, k-d tree with skin "
+                       f"stiffness {law.stiffness:g} {law.unit}{dash}, neighbour search with skin "
                        f"{contact.skin:g} m)")
         ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
         if force.halo is not None:
             ghosts += (f", contact halo {force.n_halo} particles (those within 2r + skin of "
-                       "its own, renewed with the k-d tree)")
+                       "its own, renewed with the search)")
         self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
                           f"{strain}{ghosts}")
         return force

@@ -253,7 +253,7 @@ class ContactSpec:
         "regularisation, or the dashpot beside the history spring", 0.5, nonnegative=True)
     radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
                                "neighbours just touch at rest)", None, positive=True)
-    skin: float | None = key("neighbour-list skin [m]: the k-d tree is rebuilt when a particle "
+    skin: float | None = key("neighbour-list skin [m]: the pair search is rebuilt when a particle "
                              "has moved half of it; default 0.3 x radius", None, positive=True)
 
     def validate(self, path):
