@@ -1,12 +1,14 @@
 """Granular contacts with shear history against LAMMPS, side by side (1 core).
 
-    python benchmarks/bench_granular.py [--n 47] [--steps 400] [--lmp PATH]
+    python benchmarks/bench_granular.py [--n 58] [--packing poisson|jittered]
+                                        [--steps 400] [--lmp PATH]
 
-The case: n^3 spheres of diameter 1 and mass 1 (47^3 = 103,823), a random
-packing: a simple-cubic grid of spacing 0.95 with every sphere moved by a
-seeded uniform jitter of +-0.04 in each direction, so each touches its grid
-neighbours with random overlaps (about 2.7 contacts per sphere), and random
-velocities (seeded).  Hooke contacts with shear history and Coulomb sliding,
+The case: spheres of diameter 1 and mass 1 in a random packing with random
+velocities (seeded): a Poisson-disc packing of a cube of side n (Bridson's
+sampling, no two centres closer than 0.9, so neighbours 0.9 to 1 apart
+touch with random overlaps; n = 50: 103k spheres), or (``--packing
+jittered``) an n^3 simple-cubic grid of spacing 0.95 with every sphere moved
+by a uniform jitter of +-0.04.  Hooke contacts with shear history and Coulomb sliding,
 no dashpots: k_n = 2e5, k_t = 2/7 k_n, mu = 0.5; neighbour skin 0.15 (0.3 r),
 rebuilt when a sphere has moved half of it; NVE, h = 0.02 / sqrt(k_n).
 
@@ -38,6 +40,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from solver.laws import CONTACT_LAWS, ContactSettings
@@ -47,24 +50,99 @@ from solver.petscutil import init, vec_on
 KN, MU, RADIUS = 2e5, 0.5, 0.5
 
 
-def packing(n, seed=1):
-    """Positions and velocities of the n^3 jittered spheres (seeded)."""
+def packing(n, seed=1, kind="poisson"):
+    """Positions and velocities (seeded) of the spheres: ``poisson``, a
+    Poisson-disc packing of a cube of side n (no two centres closer than
+    0.9, about 0.55 n^3 spheres); ``jittered``, the n^3 jittered grid."""
     rng = np.random.default_rng(seed)
-    g = np.arange(n) * 0.95
-    X = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
-    X += rng.uniform(-0.04, 0.04, X.shape)
+    if kind == "poisson":
+        X = poisson_disc(float(n), 0.9, seed)
+    else:
+        g = np.arange(n) * 0.95
+        X = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+        X += rng.uniform(-0.04, 0.04, X.shape)
     return X, rng.normal(0.0, 0.02, X.shape)
+
+
+@numba.njit(cache=True)
+def _bridson(side, dmin, seed, attempts):
+    """Bridson's Poisson-disc sampling of the cube [0, side]^3: points no two
+    closer than ``dmin``, each new one in the shell dmin..2 dmin around an
+    active one, ``attempts`` tries before it retires."""
+    np.random.seed(seed)
+    cell = dmin / np.sqrt(3.0)
+    m = int(np.ceil(side / cell))
+    grid = -np.ones((m, m, m), np.int64)
+    cap = int(1.2 * side ** 3 / dmin ** 3) + 16
+    pts = np.empty((cap, 3))
+    active = np.empty(cap, np.int64)
+    pts[0] = np.random.uniform(0.0, side, 3)
+    grid[int(pts[0, 0] / cell), int(pts[0, 1] / cell), int(pts[0, 2] / cell)] = 0
+    n, n_active = 1, 1
+    active[0] = 0
+    q = np.empty(3)
+    while n_active:
+        slot = np.random.randint(n_active)
+        p = active[slot]
+        placed = False
+        for _ in range(attempts):
+            r = dmin * (1.0 + np.random.random())
+            norm = 0.0
+            for c in range(3):
+                q[c] = np.random.normal()
+                norm += q[c] * q[c]
+            norm = np.sqrt(norm)
+            inside = True
+            for c in range(3):
+                q[c] = pts[p, c] + r * q[c] / norm
+                if q[c] < 0.0 or q[c] >= side:
+                    inside = False
+            if not inside:
+                continue
+            gx, gy, gz = int(q[0] / cell), int(q[1] / cell), int(q[2] / cell)
+            free = True
+            for x in range(max(gx - 2, 0), min(gx + 3, m)):
+                for y in range(max(gy - 2, 0), min(gy + 3, m)):
+                    for z in range(max(gz - 2, 0), min(gz + 3, m)):
+                        o = grid[x, y, z]
+                        if o >= 0:
+                            d2 = ((pts[o, 0] - q[0]) ** 2 + (pts[o, 1] - q[1]) ** 2 +
+                                  (pts[o, 2] - q[2]) ** 2)
+                            if d2 < dmin * dmin:
+                                free = False
+            if free:
+                pts[n] = q
+                grid[gx, gy, gz] = n
+                active[n_active] = n
+                n += 1
+                n_active += 1
+                placed = True
+                break
+        if not placed:
+            n_active -= 1
+            active[slot] = active[n_active]
+    return pts[:n].copy()
+
+
+def poisson_disc(side, dmin, seed, attempts=30):
+    """Points of a Poisson-disc packing of the cube [0, side]^3 (seeded), in
+    grid-cell order (neighbours near in memory, as a code that sorts its
+    particles spatially keeps them)."""
+    pts = _bridson(side, dmin, seed, attempts)
+    cell = np.floor(pts / 2.0).astype(np.int64)
+    m = int(cell.max()) + 1
+    return pts[np.argsort((cell[:, 0] * m + cell[:, 1]) * m + cell[:, 2], kind="stable")]
 
 
 def step_size():
     return 0.02 / np.sqrt(KN)
 
 
-def ours(n, steps, compiled=True):
+def ours(X, V, steps, compiled=True):
     """(atom-steps/s, ns per candidate pair, candidate pairs, kinetic energy at
-    the end, contacts at the end, search builds)."""
+    the end, contacts at the start and at the end, search builds) from
+    positions X and velocities V."""
     P = init([])
-    X, V = packing(n)
     N = len(X)
     settings = ContactSettings(CONTACT_LAWS["linear"](KN), RADIUS, 0.3 * RADIUS, 0.0, MU, 0.0,
                                history=True)
@@ -82,6 +160,7 @@ def ours(n, steps, compiled=True):
         contact.forces(pos, alive, out, N)
 
     accelerate()                          # compiles the loops (cached on disk), builds
+    start = len(contact.touching()[0])
     pairs = 0
     t0 = time.perf_counter()
     for _ in range(steps):                # as solver/partitions/integrators.py steps
@@ -92,7 +171,7 @@ def ours(n, steps, compiled=True):
         pairs += len(contact._pairs)
     t = (time.perf_counter() - t0) / steps
     kinetic = 0.5 * float(np.dot(arrs[1], arrs[1]))
-    return (N / t, 1e9 * t * steps / pairs, pairs // steps, kinetic,
+    return (N / t, 1e9 * t * steps / pairs, pairs // steps, kinetic, start,
             len(contact.touching()[0]), contact.builds)
 
 
@@ -114,18 +193,17 @@ run {steps}
 """
 
 
-def lammps(n, steps, exe):
+def lammps(X, V, steps, exe):
     """(atom-steps/s, ns per neighbour pair, pairs, kinetic energy at the end)
     of LAMMPS on the same packing, or None without it."""
     exe = exe or shutil.which("lmp")
     if not exe:
         return None
-    X, V = packing(n)
     tmp = Path(tempfile.mkdtemp())
     lo, hi = (X.min(axis=0) - 1.0).tolist(), (X.max(axis=0) + 1.0).tolist()
     density = float(1.0 / (4.0 / 3.0 * np.pi * RADIUS ** 3))     # mass 1
     with open(tmp / "data.pack", "w") as out:
-        out.write(f"jittered packing\n\n{len(X)} atoms\n1 atom types\n\n")
+        out.write(f"packing\n\n{len(X)} atoms\n1 atom types\n\n")
         for c, axis in enumerate("xyz"):
             out.write(f"{lo[c]!r} {hi[c]!r} {axis}lo {axis}hi\n")
         out.write("\nAtoms # sphere\n\n")
@@ -152,21 +230,26 @@ def lammps(n, steps, exe):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--n", type=int, default=47)
+    ap.add_argument("--n", type=int, default=50, help="the packing's side (poisson) or spheres "
+                    "per axis (jittered)")
+    ap.add_argument("--packing", choices=("poisson", "jittered"), default="poisson")
     ap.add_argument("--steps", type=int, default=400)
     ap.add_argument("--lmp", default=os.environ.get("LMP"), help="the LAMMPS executable "
                     "(default: $LMP, else lmp on PATH)")
     args = ap.parse_args(argv)
-    fast = ours(args.n, args.steps)
-    slow = ours(args.n, args.steps, compiled=False)
-    print(f"jittered packing {args.n}^3 = {args.n ** 3} spheres, gran/hooke/history, "
-          f"{args.steps} steps")
+    X, V = packing(args.n, kind=args.packing)
+    fast = ours(X, V, args.steps)
+    slow = ours(X, V, args.steps, compiled=False)
+    what = (f"Poisson-disc packing of a cube of side {args.n} (centres >= 0.9 apart)"
+            if args.packing == "poisson" else f"jittered grid {args.n}^3")
+    print(f"{what}: {len(X)} spheres of diameter 1, gran/hooke/history, {args.steps} steps")
     for label, row in (("ours, compiled loops", fast), ("ours, numpy reference", slow)):
-        rate, per_pair, pairs, _, touching, builds = row
+        rate, per_pair, pairs, _, start, end, builds = row
         print(f"  {label:28s} {rate / 1e6:6.2f} M atom-steps/s, {per_pair:6.2f} ns per candidate "
-              f"pair ({pairs} pairs, {touching} touching at the end, {builds} builds)")
+              f"pair ({pairs} pairs; {start} touching at the start, {end} at the end; {builds} "
+              "builds)")
     print(f"  compiled / numpy throughput = {fast[0] / slow[0]:.2f}")
-    lmp = lammps(args.n, args.steps, args.lmp)
+    lmp = lammps(X, V, args.steps, args.lmp)
     if lmp is None:
         print("  LAMMPS: not found (benchmarks/lammps_unpacked.sh unpacks it; pass --lmp)")
         return
