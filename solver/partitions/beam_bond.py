@@ -1,0 +1,97 @@
+"""Beam bonds between rotating particles in 2D: the bond law of the
+bonded-particle model with rotations (issue 25).  Not yet wired into scenes:
+the particles of ``model.lattice`` do not rotate yet (see
+docs/reference/limits.md); this module holds the law, its energy and its
+checks, which the rotating lattice will call.
+
+A bond (i, j) joins two particles with positions x and rotations theta, at
+rest X_j - X_i (length L0, direction angle alpha0).  It is a co-rotational
+Timoshenko beam (the bond of Potyondy & Cundall's parallel-bond model, in
+the total rather than incremental form, as in the beam-lattice models of
+fracture):
+
+    d = x_j - x_i,  L = |d|,  e1 = d / L,  e2 = e1 turned by +90 degrees
+    beta  = angle(d) - alpha0             the chord's rotation (wrapped)
+    phi_i = wrap(theta_i - beta),  phi_j = wrap(theta_j - beta)
+    E = 1/2 k_n (L - L0)^2 + 1/2 [phi_i phi_j] K_b [phi_i phi_j]^T
+    K_b = k_b / (1 + Phi) [[4 + Phi, 2 - Phi], [2 - Phi, 4 + Phi]]
+
+with k_n = E_b A / L0, k_b = E_b I / L0 and Phi = 12 E_b I / (kappa G A L0^2)
+the beam's shear parameter (0: Euler-Bernoulli).  The forces and torques
+are the energy's gradients, so the law conserves energy under a
+symplectic integrator, and a rigid motion of the two particles (any
+translation, any rotation: beta and both thetas turn together) leaves phi,
+L and hence every force at zero:
+
+    N = k_n (L - L0)              axial force (tension > 0)
+    [M_i, M_j] = K_b [phi_i, phi_j]   end moments
+    V = (M_i + M_j) / L           shear force
+    f_j = -N e1 + V e2,  f_i = -f_j,  torque_i = -M_i,  torque_j = -M_j
+
+For small motions this is the Timoshenko beam element's stiffness matrix
+(tests/test_beam_bond.py checks it and the large-deflection cantilever
+against the elastica).  Numpy over arrays of bonds.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def wrap(angle):
+    """The angle in (-pi, pi]."""
+    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
+
+
+class BeamBonds:
+    """The 2D beam bonds (i, j) with rest separations ``rest`` [n, 2] and the
+    stiffnesses k_n, k_b and shear parameters Phi (arrays or scalars)."""
+
+    def __init__(self, i, j, rest, k_n, k_b, phi=0.0):
+        self.i, self.j = np.asarray(i, np.int64), np.asarray(j, np.int64)
+        self.rest = np.asarray(rest, dtype=float)
+        n = self.i.size
+        self.L0 = np.linalg.norm(self.rest, axis=1)
+        self.alpha0 = np.arctan2(self.rest[:, 1], self.rest[:, 0])
+        self.k_n = np.broadcast_to(np.asarray(k_n, float), (n,))
+        k_b = np.broadcast_to(np.asarray(k_b, float), (n,))
+        Phi = np.broadcast_to(np.asarray(phi, float), (n,))
+        self.k_diag = k_b * (4.0 + Phi) / (1.0 + Phi)          # K_b's entries
+        self.k_off = k_b * (2.0 - Phi) / (1.0 + Phi)
+
+    def state(self, u, theta):
+        """(d, L, e1, e2, phi_i, phi_j) at displacements ``u`` [m, 2] and
+        rotations ``theta`` [m], from the rest separations (no X + u)."""
+        d = self.rest + (u[self.j] - u[self.i])
+        L = np.linalg.norm(d, axis=1)
+        e1 = d / L[:, None]
+        e2 = np.stack([-e1[:, 1], e1[:, 0]], axis=1)
+        beta = wrap(np.arctan2(d[:, 1], d[:, 0]) - self.alpha0)
+        return d, L, e1, e2, wrap(theta[self.i] - beta), wrap(theta[self.j] - beta)
+
+    def resultants(self, u, theta):
+        """Each bond's (axial force N, shear force V, end moments M_i, M_j)."""
+        _, L, _, _, phi_i, phi_j = self.state(u, theta)
+        M_i = self.k_diag * phi_i + self.k_off * phi_j
+        M_j = self.k_off * phi_i + self.k_diag * phi_j
+        return self.k_n * (L - self.L0), (M_i + M_j) / L, M_i, M_j
+
+    def energy(self, u, theta) -> float:
+        _, L, _, _, phi_i, phi_j = self.state(u, theta)
+        bend = self.k_diag * (phi_i ** 2 + phi_j ** 2) + 2.0 * self.k_off * phi_i * phi_j
+        return float(np.sum(0.5 * self.k_n * (L - self.L0) ** 2 + 0.5 * bend))
+
+    def forces(self, u, theta, m=None):
+        """(forces [m, 2], torques [m]) on the particles at displacements ``u``
+        and rotations ``theta`` (``m`` particles; default: as many as u)."""
+        _, L, e1, e2, phi_i, phi_j = self.state(u, theta)
+        M_i = self.k_diag * phi_i + self.k_off * phi_j
+        M_j = self.k_off * phi_i + self.k_diag * phi_j
+        N = self.k_n * (L - self.L0)
+        f_j = -N[:, None] * e1 + ((M_i + M_j) / L)[:, None] * e2
+        m = len(u) if m is None else m
+        force = np.zeros((m, 2))
+        for c in range(2):
+            force[:, c] = (np.bincount(self.j, f_j[:, c], minlength=m) -
+                           np.bincount(self.i, f_j[:, c], minlength=m))
+        torque = -(np.bincount(self.i, M_i, minlength=m) + np.bincount(self.j, M_j, minlength=m))
+        return force, torque
