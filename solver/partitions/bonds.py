@@ -185,33 +185,34 @@ class BondForce(Force):
         evaluation that this piece counts: those whose end of smaller id is
         owned here, or owned by no piece of the partition and the other end
         is owned here (summed over the pieces: each pair once)."""
-        a, b, counted = self._counted(*self.contact.touching())
+        i, j = self.contact.touching()
+        gi, gj = self.ids[i], self.ids[j]
+        a, b = np.minimum(gi, gj), np.maximum(gi, gj)
+        counted = self._counted(a, b)
         return np.stack([a[counted], b[counted]], axis=1)
 
-    def _counted(self, i, j):
-        """Global ids (a < b) of local pairs (i, j) and which of them this piece
-        counts (see :meth:`contact_pairs`)."""
-        gi, gj = self.ids[i], self.ids[j]
-        swap = gi > gj
-        a, b = np.where(swap, gj, gi), np.where(swap, gi, gj)
-        owned = self.part.layout.n_owned
-        a_here, b_here = np.where(swap, j, i) < owned, np.where(swap, i, j) < owned
+    def _counted(self, a, b):
+        """Which pairs of global ids a < b this piece counts (see
+        :meth:`contact_pairs`), by global ids alone: the pairs need not be
+        among the particles it holds now."""
+        owned = np.sort(self.ids[:self.part.layout.n_owned])
+        a_here, b_here = np.isin(a, owned), np.isin(b, owned)
         a_owned = ~np.isin(a, self.part.dist.external)      # (every contact particle is held)
-        return a, b, a_here | (~a_owned & b_here)
+        return a_here | (~a_owned & b_here)
 
     def contact_history(self):
         """The shear histories this piece counts, rows (a, b, xi, separation)
         oriented from the smaller global id a to b (a checkpoint's), or None
-        without them."""
+        without them.  Right after a restore, before the search is built
+        again, they are the restored rows this piece counts."""
         if self.contact is None or not self.contact.history:
             return None
         keys, xi, sep = self.contact.table()
         a, b = keys // KEY, keys % KEY
-        loc = {g: n for n, g in enumerate(self.ids.tolist())}
-        i = np.array([loc[g] for g in a.tolist()], dtype=np.int64)
-        j = np.array([loc[g] for g in b.tolist()], dtype=np.int64)
-        counted = self._counted(i, j)[2]
-        return np.column_stack([a, b, xi.reshape(a.size, -1), sep.reshape(a.size, -1)])[counted]
+        counted = self._counted(a, b)
+        dim = self.dim
+        return np.column_stack([a, b, xi.reshape(a.size, dim),
+                                sep.reshape(a.size, dim)])[counted]
 
     def restore_contacts(self, rows):
         """Shear histories of a checkpoint (rows of :meth:`contact_history`, all

@@ -20,8 +20,10 @@ settings' law (:data:`solver.laws.CONTACT_LAWS`):
   plane (its length kept), the tangential part of the separation's change
   since the last evaluation is added, and the spring k_t = ratio x k (k the
   normal tangent stiffness) pulls with -k_t xi, capped at mu f_n: beyond
-  it the contact slides, xi is shortened to mu f_n / k_t and the work of
-  sliding, mu f_n times the slip, is dissipated.  While it sticks a
+  it the contact slides, xi is shortened to mu f_n / k_t and the spring
+  energy the cap takes, 1/2 k_t (|xi|^2 - (mu f_n / k_t)^2) (mu f_n times
+  the slip in steady sliding), is dissipated, as is the last 1/2 k_t |xi|^2
+  of a contact that opens.  While it sticks a
   dashpot c_t = 2 zeta_t sqrt(k_t m*) acts beside the spring, the two
   together at most mu f_n.  The spring holds 1/2 k_t |xi|^2 (strain energy).
   A pair's xi lives while it touches; it is kept by global particle ids
@@ -106,7 +108,7 @@ class Contact:
         self.ids, self.dt = ids, dt
         self._shear = None                            # (xi, separation, live) per pair of _mine
         self._pending = None                          # a history table for the next build
-        self._slipped = 0.0                           # work of sliding at the last forces [J]
+        self._slipped = 0.0            # the shear springs' dissipation at the last forces [J]
         self.rest = rest
         self.decides = decides
         self.owned = np.iinfo(np.int64).max if owned is None else owned
@@ -320,12 +322,27 @@ class Contact:
         length = np.linalg.norm(xi, axis=1)
         cap = self.mu * fn
         slides = kt * length > cap
-        slip = np.where(slides, length - cap / kt, 0.0)
-        xi[slides] *= (cap[slides] / (kt[slides] * length[slides]))[:, None]
+        shrink = np.where(slides, cap / np.where(slides, kt * length, 1.0), 1.0)
+        lost = 0.5 * kt * length ** 2 * (1.0 - shrink ** 2)     # what the cap takes
+        xi *= shrink[:, None]
         live_all[:] = False
         live_all[at] = True
         xi_all[at], sep_all[at] = xi, d
-        return -kt[:, None] * xi, 0.5 * kt * np.einsum("pc,pc->p", xi, xi), ~slides, cap * slip
+        return -kt[:, None] * xi, 0.5 * kt * np.einsum("pc,pc->p", xi, xi), ~slides, lost
+
+    def _let_go(self, at):
+        """The last spring energy of the pairs that touched at the last
+        evaluation and do not now (``at``: those that do), this piece's share."""
+        xi_all, sep_all, live_all = self._shear
+        gone = live_all.copy()
+        gone[at] = False
+        gone = np.flatnonzero(gone)
+        if not gone.size:
+            return 0.0
+        overlap = 2 * self.radius - np.linalg.norm(sep_all[gone], axis=1)
+        _, k, _ = self.law.evaluate(np.maximum(overlap, 0.0))
+        held = 0.5 * self.ratio * k * np.einsum("pc,pc->p", xi_all[gone], xi_all[gone])
+        return float(np.dot(held, self._share(self._mine[0][gone], self._mine[1][gone])))
 
     def _subset(self, at):
         """(i, j, bond, which of them have a bond, rest separations X_j - X_i or
@@ -384,8 +401,9 @@ class Contact:
             self._fresh = True
             return
         i, j, d, dist, overlap, at = self._touching(u, alive)
+        let_go = self._let_go(at) if self.history and self._shear is not None else 0.0
         if not i.size:
-            self.energy, self._last, self._slipped = 0.0, None, 0.0
+            self.energy, self._last, self._slipped = 0.0, None, let_go
             if self._shear is not None:
                 self._shear[2][:] = False                    # no pair touches: no history
             return
@@ -398,7 +416,7 @@ class Contact:
             spring, held, sticks, slipped = self._spring(at, d, unit, k, f)
             force += spring
             energy = energy + held
-            self._slipped = float(np.dot(slipped, share))
+            self._slipped = float(np.dot(slipped, share)) + let_go
             shear = (spring, sticks)
         self.energy = float(np.dot(energy, share))
         self._last = (i, j, unit, k, f, shear, d)

@@ -43,7 +43,9 @@ def loops(dim: int):
         at displacements ``u`` (positions X + u; ``rest``: X_j - X_i per pair, or
         an empty array when ``u`` holds positions; ``bond``: each pair's bond or
         -1, an empty array when there are none) to ``out``; returns (energy,
-        work of sliding), this piece's shares (half per end below ``owned``).
+        dissipated by the shear springs: the energy the Coulomb cap takes from
+        a sliding spring and the last energy of one that lets go), this
+        piece's shares (half per end below ``owned``).
         ``d`` holds each pair's separation of the last call and receives this
         call's; with ``history`` the shear displacements ``xi`` of the pairs
         ``live`` (touching at the last call) advance from it to this call."""
@@ -76,8 +78,16 @@ def loops(dim: int):
             overlap = two_r - r
             if overlap <= 0.0 or r <= 0.0 or (with_bonds and bond[p] >= 0 and alive[bond[p]]):
                 touch[p] = False
-                if history:
+                if history and live[p]:        # the spring's last energy is let go
                     live[p] = False
+                    r_old = 0.0
+                    held = 0.0
+                    for c in range(dim):
+                        r_old += (d[p, c] - step[c]) ** 2
+                        held += xi[p, c] * xi[p, c]
+                    _, k_old, _ = _law(law, stiff, max(two_r - np.sqrt(r_old), 0.0))
+                    share = 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0))
+                    slipped += share * 0.5 * ratio * k_old * held
                 continue
             touch[p] = True
             dist[p] = r
@@ -112,9 +122,9 @@ def loops(dim: int):
                 length = np.sqrt(length2)
                 sticks[p] = kt * length <= cap
                 shrink = 1.0
-                if not sticks[p]:
-                    slipped += share * cap * (length - cap / kt)
+                if not sticks[p]:              # the energy the cap takes is dissipated
                     shrink = cap / (kt * length)
+                    slipped += share * 0.5 * kt * length * length * (1.0 - shrink * shrink)
                     length *= shrink
                 e += 0.5 * kt * length * length
                 live[p] = True
@@ -311,6 +321,8 @@ def pairs_within(x, reach):
     x = np.ascontiguousarray(x, dtype=float)
     if len(x) < 2:
         return np.zeros((0, 2), np.int64)
+    if not np.all(np.isfinite(x)):                 # (as the k-d tree refuses them)
+        raise ValueError("contact search: particle positions are not finite")
     cell, start, order, shape = _cells(x, reach)
     return _scan(x, x[order], reach, cell, start, order, shape)
 
