@@ -28,6 +28,8 @@ L and hence every force at zero:
     V = (M_i + M_j) / L           shear force
     f_j = -N e1 + V e2,  f_i = -f_j,  torque_i = -M_i,  torque_j = -M_j
 
+An end turned by more than pi against the chord wraps round (its moment
+changes sign there): a bond bent that far has broken long before.
 For small motions this is the Timoshenko beam element's stiffness matrix
 (tests/test_beam_bond.py checks it and the large-deflection cantilever
 against the elastica).  Numpy over arrays of bonds.
