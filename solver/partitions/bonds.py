@@ -118,10 +118,15 @@ class BondForce(Force):
     def _start_contact(self, settings, part, whole, node_mass):
         """Contact of the lattice particles this piece holds and of its bond
         ghosts; split over ranks, also of its halo, built here at the
-        current displacements (collective)."""
+        current displacements (collective).  Particles of another partition
+        (the lattice sites an overlap gives the fem side, held here as
+        external copies) take no part: the fem side would never feel their
+        reaction, and the overlap's cells already join them to the dem
+        particles."""
         lay, held = part.layout, part.layout.held
         loc = lay.local(whole)
         particles = np.concatenate([loc[loc >= 0], held.size + np.arange(self.n_ghosts)])
+        particles = particles[~np.isin(self.ids[particles], part.dist.external)]
         mass = node_mass[self.ids]
         split = part.comm.size > 1
         self._bonded_contact = (particles, mass)
