@@ -38,7 +38,8 @@ def test_a_rigid_motion_exerts_nothing(angle):
 def test_forces_and_torques_are_the_energy_gradients_and_balance():
     """At a random large deformation: f = -dE/dx and torque = -dE/dtheta (central
     differences, 1e-7), the forces sum to zero and the torques with the
-    forces' moments too (angular momentum is kept)."""
+    forces' moments too (angular momentum is kept); a bond's resultants
+    (N, V, M_i, M_j) are the loads it puts on its ends."""
     X, bonds, rng = cluster()
     u = rng.normal(0.0, 0.15, X.shape)
     theta = rng.normal(0.0, 0.4, len(X))
@@ -55,6 +56,16 @@ def test_forces_and_torques_are_the_energy_gradients_and_balance():
         grad = (bonds.energy(u, theta + dt) - bonds.energy(u, theta - dt)) / (2 * h)
         assert abs(t[p] + grad) < 1e-7 * max(1.0, abs(grad)), p
     x = X + u
+    # a lone bond's resultants are its forces: -N along e1 and V along e2 on j,
+    # the torques -M_i and -M_j
+    a, b = bonds.i[0], bonds.j[0]
+    alone = BeamBonds([a], [b], bonds.rest[:1], bonds.k_n[0], 1.0, 0.3)
+    fa, ta = alone.forces(u, theta)
+    N, V, M_i, M_j = (r[0] for r in alone.resultants(u, theta))
+    e1 = (x[b] - x[a]) / np.linalg.norm(x[b] - x[a])
+    assert abs(np.dot(fa[b], e1) + N) < 1e-12 * max(1.0, abs(N))
+    assert abs(np.dot(fa[b], [-e1[1], e1[0]]) - V) < 1e-12 * max(1.0, abs(V))
+    assert abs(ta[a] + M_i) < 1e-12 and abs(ta[b] + M_j) < 1e-12
     assert np.abs(f.sum(axis=0)).max() < 1e-12
     assert abs(t.sum() + np.sum(x[:, 0] * f[:, 1] - x[:, 1] * f[:, 0])) < 1e-12
 

@@ -70,12 +70,17 @@ class BeamBonds:
         beta = wrap(np.arctan2(d[:, 1], d[:, 0]) - self.alpha0)
         return d, L, e1, e2, wrap(theta[self.i] - beta), wrap(theta[self.j] - beta)
 
-    def resultants(self, u, theta):
-        """Each bond's (axial force N, shear force V, end moments M_i, M_j)."""
-        _, L, _, _, phi_i, phi_j = self.state(u, theta)
+    def _loads(self, u, theta):
+        """(L, e1, e2, N, M_i, M_j) of each bond at ``u``, ``theta``."""
+        _, L, e1, e2, phi_i, phi_j = self.state(u, theta)
         M_i = self.k_diag * phi_i + self.k_off * phi_j
         M_j = self.k_off * phi_i + self.k_diag * phi_j
-        return self.k_n * (L - self.L0), (M_i + M_j) / L, M_i, M_j
+        return L, e1, e2, self.k_n * (L - self.L0), M_i, M_j
+
+    def resultants(self, u, theta):
+        """Each bond's (axial force N, shear force V, end moments M_i, M_j)."""
+        L, _, _, N, M_i, M_j = self._loads(u, theta)
+        return N, (M_i + M_j) / L, M_i, M_j
 
     def energy(self, u, theta) -> float:
         _, L, _, _, phi_i, phi_j = self.state(u, theta)
@@ -85,10 +90,7 @@ class BeamBonds:
     def forces(self, u, theta, m=None):
         """(forces [m, 2], torques [m]) on the particles at displacements ``u``
         and rotations ``theta`` (``m`` particles; default: as many as u)."""
-        _, L, e1, e2, phi_i, phi_j = self.state(u, theta)
-        M_i = self.k_diag * phi_i + self.k_off * phi_j
-        M_j = self.k_off * phi_i + self.k_diag * phi_j
-        N = self.k_n * (L - self.L0)
+        L, e1, e2, N, M_i, M_j = self._loads(u, theta)
         f_j = -N[:, None] * e1 + ((M_i + M_j) / L)[:, None] * e2
         m = len(u) if m is None else m
         force = np.zeros((m, 2))

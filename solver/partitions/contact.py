@@ -190,15 +190,17 @@ class Contact:
             self._pair_bond = np.where(found, self._key_order[at], -1)
         else:
             self._pair_bond = np.full(len(i), -1, dtype=np.int64)
-        before = self._mine if self.history and self._pending is None and \
-            self._mine is not None else None
+        # the histories move to the new pairs in one merge of local pair keys
+        # (compiled, numbering unchanged), else by global ids
+        before = self._mine
+        merge = self.history and self.compiled and self._pending is None and before is not None
+        table = self.table() if self.history and not merge else None
         self._mine = self._subset((i < self.owned) | (j < self.owned))
-        if self.history:
-            if before is None:             # the local numbering changed: by global ids
-                self._take_over(self.table(), u.shape[1])
-            else:
-                self._carry(before, u.shape[1])
-            self._pending = None
+        if merge:
+            self._shear = self._kern.carry(before[0], before[1], *self._shear, i, j)
+        elif self.history:
+            self._take_over(table, u.shape[1])
+        self._pending = None
         if self.compiled:
             self._allocate(u.shape[1])
         self._u_built = u[self.nodes].copy()
@@ -267,28 +269,6 @@ class Contact:
         order = np.argsort(keys)
         self._pending = (np.asarray(keys, np.int64)[order], xi[order], sep[order])
         self._u_built = None
-
-    def _carry(self, before, dim):
-        """The new candidate pairs' histories from those of the last build
-        (``before``: its pairs with an owned end), in the same local numbering:
-        both sorted by (i, j)."""
-        i, j = self._mine[0], self._mine[1]
-        if self._shear is None:
-            self._shear = (np.zeros((i.size, dim)), np.zeros((i.size, dim)),
-                           np.zeros(i.size, bool))
-        elif self.compiled:                                   # one merge
-            self._shear = self._kern.carry(before[0], before[1], *self._shear, i, j)
-        else:
-            xi, sep, was = self._shear
-            new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim))
-            live = np.zeros(i.size, bool)
-            if before[0].size and i.size:
-                old = before[0] * KEY + before[1]
-                key = i * KEY + j
-                at = np.minimum(np.searchsorted(old, key), old.size - 1)
-                live = (old[at] == key) & was[at]
-                new_xi[live], new_sep[live] = xi[at[live]], sep[at[live]]
-            self._shear = (new_xi, new_sep, live)
 
     def _take_over(self, table, dim):
         """The new candidate pairs' histories from ``table`` (by global ids)."""
@@ -439,17 +419,17 @@ class Contact:
         power [W] (this piece's share)."""
         if not self.dissipative:
             return 0.0
+        slipped = self._slipped / self.dt if self._slipped else 0.0   # the springs', as a power
         if self.history and not (self.zeta or self.zeta_t):      # springs without dashpots
-            return self._slipped / self.dt if self._slipped else 0.0
+            return slipped
         if self.compiled:
             e = self._eval
-            total = self._viscous(e["pi"], e["pj"], e["touch"], e["d"], e["dist"], self.radius,
-                                  self._code, self.law.stiffness, self.history, e["xi"],
-                                  e["sticks"], self.mass, v, self.zeta, self.mu, self.zeta_t,
-                                  self.ratio, out, rows, self.owned)
-            return total + self._slipped / self.dt if self._slipped else total
+            return slipped + self._viscous(
+                e["pi"], e["pj"], e["touch"], e["d"], e["dist"], self.radius, self._code,
+                self.law.stiffness, self.history, e["xi"], e["sticks"], self.mass, v, self.zeta,
+                self.mu, self.zeta_t, self.ratio, out, rows, self.owned)
         if self._last is None:
-            return 0.0
+            return slipped
         i, j, unit, k, fn, shear, _ = self._last
         mi, mj = self.mass[i], self.mass[j]
         root = np.sqrt(k * mi * mj / (mi + mj))
@@ -475,8 +455,7 @@ class Contact:
             force[slide] -= (ft[slide] / speed[slide])[:, None] * vt[slide]
             power += ft * speed
         _scatter(out, rows, i, j, force)
-        total = float(np.dot(power, self._share(i, j)))
-        return total + self._slipped / self.dt if self._slipped else total
+        return slipped + float(np.dot(power, self._share(i, j)))
 
 
 def _scatter(out, rows, i, j, f):
