@@ -80,8 +80,8 @@ def test_the_same_bonds_break_on_one_and_two_ranks(tmp_path):
     (["model.lattice.weibull_modulus=-2"], "model.lattice.weibull_modulus"),
     (["model.lattice.weibull_modulus=3"], "model.lattice.weibull_modulus: spreads the bonds' "
      "strengths around break_strain: give break_strain"),
-    (["model.lattice.seed=4"], "model.lattice.seed: seeds the strength spread: give "
-     "weibull_modulus"),
+    (["model.lattice.seed=4"], "model.lattice.seed: seeds the strength spread and the random "
+     "packing: give weibull_modulus or kind: random"),
 ])
 def test_bad_strength_input(sets, message, tmp_path):
     line = refused("configs/wave_bar_transition.yaml", sets, tmp_path)

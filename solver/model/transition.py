@@ -29,8 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.errors import SceneError
-from solver.model.elements import FAMILIES
 from solver.model.embedding import Embedding, find, flat_cells, locate_in_cells
+from solver.model import calibration, packing
+from solver.model.elements import FAMILIES, volumes
 from solver.model.lattice import cubic, square
 
 
@@ -66,6 +67,7 @@ class Transition:
     fe_cells: dict              # family -> conn: the body's cells outside band and region
     band_cells: dict            # family -> conn
     spacing: float
+    packing: str | None = None  # what the random packing is (None: the regular lattice)
 
     @property
     def n_core(self) -> int:
@@ -78,9 +80,10 @@ class Transition:
     def describe(self) -> str:
         n_cells = sum(len(c) for c in self.band_cells.values())
         per = np.bincount(self.band.cell, minlength=n_cells)
-        return (f"transition zone: {n_cells} band cells holding {len(self.band_points)} band "
+        text = (f"transition zone: {n_cells} band cells holding {len(self.band_points)} band "
                 f"particles ({per.min()}-{per.max()} per cell), {self.n_core} core particles, "
                 f"{sum(len(c) for _, c, _ in self.blocks)} bonds carried to band nodes")
+        return text if self.packing is None else f"{text}; {self.packing}"
 
 
 def _keys(conn):
@@ -142,49 +145,29 @@ def build(spec, mesh) -> Transition:
     fe_cells = _without(body.cells, band.cells, region.cells)
     _check_layer(mesh, fe_cells, region, band, lat)
 
-    # lattice sites on the bounding box of band and region
+    # lattice sites (or a random packing) on the bounding box of band and region
     nodes = np.unique(np.concatenate([band.nodes, region.nodes]))
     lo, hi = pts[nodes].min(axis=0), pts[nodes].max(axis=0)
-    shape = np.floor((hi - lo) / a + 1e-6).astype(int) + 1
-    if np.prod(shape, dtype=float) > 5e7:
-        raise SceneError(f"model.lattice.spacing: {a:g} m gives {np.prod(shape, dtype=float):.3g} "
-                         "lattice sites on the region's bounding box (limit 5e7)")
-    try:
-        E = lat.E or mat.E
-        grid = (square(lo, shape, a, E, mat.nu, mat.rho, mat.depth, mat.kind)
-                if dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
-    except ValueError as e:
-        raise SceneError(f"model.lattice: {e}") from None
-    band_cell, band_w = locate_in_cells(pts, band.cells, grid.points)
-    in_region = np.zeros(len(grid.points), bool)
-    todo = np.flatnonzero(band_cell < 0)
-    region_cell, _ = locate_in_cells(pts, region.cells, grid.points[todo])
-    in_region[todo[region_cell >= 0]] = True
-    kept = (band_cell >= 0) | in_region
-    # lattice cells with every corner kept carry the bonds and the masses
-    full = kept[grid.corners].all(axis=1)
-    bi, bj, bk = grid.bonds(full)
-    t = mat.depth
-    share = mat.rho * (t * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
-    mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
-    kept &= mass > 0                               # a site outside every kept cell: no particle
+    sites = (_random if lat.kind == "random" else _square)(spec, pts, band, region, lo, hi)
+    points, mass, bi, bj, bk, band_cell, band_w, kept, note = sites
     is_band = kept & (band_cell >= 0)
     is_core = kept & ~is_band
-    empty = _empty_cells(pts, band.cells, band_cell[is_band], grid.points[is_band])
+    empty = _empty_cells(pts, band.cells, band_cell[is_band], points[is_band])
     if empty.size:
         raise SceneError(f"{key}: band cell {_label(band, int(empty[0]))} of group "
                          f"{lat.transition!r} holds no particle of spacing {a:g} m "
                          f"({empty.size} such cells); the band must overlap the lattice")
     if not is_core.any():
-        raise SceneError(f"model.lattice.region: no lattice site of spacing {a:g} m lies in "
-                         f"region {lat.region!r} outside the band")
-    _check_tiling(lat, pts[nodes], pts[region.nodes])
+        raise SceneError(f"model.lattice.region: no {'particle' if note else 'lattice site'} "
+                         f"of spacing {a:g} m lies in region {lat.region!r} outside the band")
+    if lat.kind != "random":
+        _check_tiling(lat, pts[nodes], pts[region.nodes])
 
     n_mesh = len(pts)
     band_ids, core_ids = np.flatnonzero(is_band), np.flatnonzero(is_core)
-    model_id = np.full(len(grid.points), -1, dtype=np.int64)
+    model_id = np.full(len(points), -1, dtype=np.int64)
     model_id[core_ids] = n_mesh + np.arange(core_ids.size)
-    band_no = np.full(len(grid.points), -1, dtype=np.int64)
+    band_no = np.full(len(points), -1, dtype=np.int64)
     band_no[band_ids] = np.arange(band_ids.size)
     _, flat_conn = flat_cells(band.cells)
     b_nodes = flat_conn[band_cell[band_ids]]                        # [n_band, k]
@@ -192,7 +175,7 @@ def build(spec, mesh) -> Transition:
     emb = Embedding(band_cell[band_ids], b_nodes, b_w, np.zeros((band_ids.size, dim)))
 
     # bonds: core-core stay bonds; bonds with a band end become elements on nodes
-    unit = grid.points[bj] - grid.points[bi]
+    unit = points[bj] - points[bi]
     length = np.linalg.norm(unit, axis=1)
     unit /= length[:, None]
     core_i, core_j = is_core[bi], is_core[bj]
@@ -215,8 +198,84 @@ def build(spec, mesh) -> Transition:
             conn = np.hstack([b_nodes[p], model_id[core_end[m]][:, None]])
             blocks.append(("bond", conn, RankOneBonds(conn, g, bk[m], length[m])))
     node_mass = emb.to_nodes(mass[band_ids], n_mesh)
-    return Transition(n_mesh, grid.points[core_ids], mass[core_ids], bonds, blocks, node_mass,
-                      emb, grid.points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a)
+    return Transition(n_mesh, points[core_ids], mass[core_ids], bonds, blocks, node_mass,
+                      emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a, note)
+
+
+def _square(spec, pts, band, region, lo, hi):
+    """The square (cubic) lattice's sites on the box [lo, hi], those inside a
+    band or region cell kept, with the bonds and masses of the lattice cells
+    whose corners are all kept."""
+    lat, mat, dim, a = spec.lattice, spec.material, len(lo), spec.lattice.spacing
+    shape = np.floor((hi - lo) / a + 1e-6).astype(int) + 1
+    if np.prod(shape, dtype=float) > 5e7:
+        raise SceneError(f"model.lattice.spacing: {a:g} m gives {np.prod(shape, dtype=float):.3g} "
+                         "lattice sites on the region's bounding box (limit 5e7)")
+    try:
+        E = lat.E or mat.E
+        grid = (square(lo, shape, a, E, mat.nu, mat.rho, mat.depth, mat.kind)
+                if dim == 2 else cubic(lo, shape, a, E, mat.nu, mat.rho))
+    except ValueError as e:
+        raise SceneError(f"model.lattice: {e}") from None
+    band_cell, band_w, kept = _inside(pts, band, region, grid.points)
+    full = kept[grid.corners].all(axis=1)
+    bi, bj, bk = grid.bonds(full)
+    share = mat.rho * (mat.depth * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
+    mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
+    kept &= mass > 0                               # a site outside every kept cell: no particle
+    return grid.points, mass, bi, bj, bk, band_cell, band_w, kept, None
+
+
+def _inside(pts, band, region, particles):
+    """(band cell or -1, weights in it, inside band or region) of each particle."""
+    band_cell, band_w = locate_in_cells(pts, band.cells, particles)
+    in_region = np.zeros(len(particles), bool)
+    todo = np.flatnonzero(band_cell < 0)
+    region_cell, _ = locate_in_cells(pts, region.cells, particles[todo])
+    in_region[todo[region_cell >= 0]] = True
+    return band_cell, band_w, (band_cell >= 0) | in_region
+
+
+def _random(spec, pts, band, region, lo, hi):
+    """A seeded Poisson-disc packing of the box [lo, hi] (:mod:`solver.model.packing`),
+    the particles inside a band or region cell kept, bonded to their Delaunay
+    neighbours within the gap, calibrated to E by a measured uniaxial test
+    (:mod:`solver.model.calibration`); the band and region's mass shared in
+    proportion to r^dim."""
+    lat, mat, dim = spec.lattice, spec.material, len(lo)
+    gap, spread = lat.bond_gap, lat.spread
+    E = lat.E or mat.E
+    try:
+        points, radii = packing.poisson_disc(lo, hi, 0.5 * lat.spacing, spread, lat.seed)
+    except ValueError as e:
+        raise SceneError(f"model.lattice.spacing: {e}") from None
+    band_cell, band_w, kept = _inside(pts, band, region, points)
+    ids = np.flatnonzero(kept)
+    i, j = packing.neighbour_pairs(points[ids], radii[ids], gap)
+    bonded = np.zeros(ids.size, bool)
+    bonded[i] = bonded[j] = True
+    if not bonded.all():
+        raise SceneError(f"model.lattice.gap: {gap:g} leaves {int((~bonded).sum())} of "
+                         f"{ids.size} particles unbonded (none of their Delaunay neighbours "
+                         "within the gap); give a larger gap")
+    try:
+        kappa, measured = calibration.calibrate(E, mat.nu, mat.kind, spread, gap, lat.seed)
+    except calibration.Floppy as e:
+        raise SceneError(f"model.lattice.gap: {e}") from None
+    except ValueError as e:
+        raise SceneError(f"model.lattice: {e}") from None
+    bk = packing.bond_stiffness(points[ids], radii[ids], i, j, E, mat.depth, kappa)
+    volume = sum(volumes(FAMILIES[fam], pts[conn]).sum()
+                 for group in (band, region) for fam, conn in group.cells.items())
+    mass = np.zeros(len(points))
+    mass[ids] = packing.masses(radii[ids], dim, mat.rho * (mat.depth if dim == 2 else 1.0) * volume)
+    nu = measured.nu / (1.0 + measured.nu) if mat.kind == "plane_strain" else measured.nu
+    note = (f"random packing: {ids.size} particles (radius {0.5 * lat.spacing:g} m, spread "
+            f"{spread:g}, seed {lat.seed}), {i.size} bonds (gap {gap:g}; "
+            f"{2 * i.size / ids.size:.2f} per particle), E calibrated (bond factor {kappa:.4g}) "
+            f"on a uniaxial test of {measured.particles} particles, which gives nu {nu:.3f}; its "
+            f"most stretched bond carries {measured.concentration:.2f} x the applied strain")
+    return points, mass, ids[i], ids[j], bk, band_cell, band_w, kept, note
 
 
 TILE_TOLERANCE = 1e-6     # a width is a whole number of spacings to this (in spacings)

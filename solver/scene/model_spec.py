@@ -293,7 +293,8 @@ class LatticeSpec:
         "Weibull-distributed with shape m and mean 1 (m 3-10 for rocks and ceramics; larger: "
         "less spread), drawn from its particles' ids and seed (the same on any ranks); "
         "default: every bond at break_strain", None, positive=True)
-    seed: int = key("seed of the strength spread (weibull_modulus)", 0, nonnegative=True)
+    seed: int = key("seed of the strength spread (weibull_modulus) and of the random packing "
+                    "(kind random)", 0, nonnegative=True)
     contact: ContactSpec | None = key(
         "contact of particles that share no live bond (linear spring k_n on the overlap of "
         "spheres); needs geometry: nonlinear", None)
@@ -302,9 +303,26 @@ class LatticeSpec:
         "the region that the lattice overlaps; its particles move with their cell (shape-function "
         "weights), their bond forces and masses go to the cell's nodes, and the region's cells "
         "only give its shape (see docs/transition.md)", None)
-    kind: Literal["square"] = key("square: square lattice with diagonal bonds in 2D (nu = 1/3 "
-                                  "plane stress, 1/4 plane strain), simple cubic with face "
-                                  "diagonals in 3D (nu = 1/4)", "square")
+    kind: Literal["square", "random"] = key(
+        "square: square lattice with diagonal bonds in 2D (nu = 1/3 plane stress, 1/4 plane "
+        "strain), simple cubic with face diagonals in 3D (nu = 1/4); random: a seeded "
+        "Poisson-disc packing of particles of radius spacing/2 (radius_spread), bonded to their "
+        "Delaunay neighbours within gap, E calibrated on a uniaxial test of the packing (nu about "
+        "0.33 plane stress, 0.25 plane strain and 3D; needs transition; docs/bonds.md)", "square")
+    gap: float | None = key(
+        "kind random: two particles are bonded when their surfaces are at most gap x their mean "
+        "diameter apart (Delaunay neighbours); default 1.0", None, nonnegative=True)
+    radius_spread: float | None = key(
+        "kind random: radii uniform in spacing/2 x (1 -+ radius_spread), below 1; default 0",
+        None, nonnegative=True)
+
+    @property
+    def bond_gap(self) -> float:
+        return 1.0 if self.gap is None else self.gap
+
+    @property
+    def spread(self) -> float:
+        return 0.0 if self.radius_spread is None else self.radius_spread
 
     def validate(self, path):
         if self.contact is not None and not BOND_GEOMETRIES[self.geometry].current:
@@ -313,8 +331,18 @@ class LatticeSpec:
         if self.weibull_modulus is not None and self.break_strain is None:
             fail(f"{path}.weibull_modulus", "spreads the bonds' strengths around break_strain: "
                  "give break_strain")
-        if self.seed and self.weibull_modulus is None:
-            fail(f"{path}.seed", "seeds the strength spread: give weibull_modulus")
+        for name in ("gap", "radius_spread"):
+            if getattr(self, name) is not None and self.kind != "random":
+                fail(f"{path}.{name}", "sets up a random packing: give kind: random")
+        if self.seed and self.weibull_modulus is None and self.kind != "random":
+            fail(f"{path}.seed", "seeds the strength spread and the random packing: give "
+                 "weibull_modulus or kind: random")
+        if self.spread >= 1.0:
+            fail(f"{path}.radius_spread", f"{self.spread:g}: radii spacing/2 x (1 -+ spread) "
+                 "need a spread below 1")
+        if self.kind == "random" and not self.transition:
+            fail(f"{path}.kind", "random packings are laid in a transition band and its region "
+                 "(give transition); without one every particle is a mesh node")
         if self.break_strain is not None and not BOND_GEOMETRIES[self.geometry].breakable:
             fail(f"{path}.break_strain", "needs geometry: nonlinear (a small-strain bond does not "
                  "know its current length)")
