@@ -178,3 +178,24 @@ def test_a_large_deflection_cantilever_follows_the_elastica():
     want_tip, want_short = elastica(2.0)
     assert abs(tip / want_tip - 1) < 1e-3 and abs(short / want_short - 1) < 1e-3
     assert want_tip < 0.75 * 2.0 / 3
+
+
+@pytest.mark.parametrize("size", [0.3, 1e-4])
+def test_the_compiled_loop_is_the_numpy_law(size):
+    """solver/partitions/beam_bond_kernel.py at a large random deformation
+    (rotations beyond pi: atan2) and a small one (chords turned by less than
+    0.01 rad: atan's series): the numpy law's forces and torques to 1e-12;
+    rows beyond ``rows`` (another piece's particles) are left alone."""
+    from solver.partitions.beam_bond_kernel import beam_forces
+    X, bonds, rng = cluster(seed=5, n=40)
+    u = rng.normal(0.0, size, X.shape)
+    theta = rng.normal(0.0, 8 * size, len(X))
+    f, t = bonds.forces(u, theta)
+    out = beam_forces(bonds, np.column_stack([u, theta]), np.zeros((len(X), 3)))
+    scale = max(np.abs(f).max(), np.abs(t).max())
+    assert np.abs(out[:, :2] - f).max() < 1e-12 * scale
+    assert np.abs(out[:, 2] - t).max() < 1e-12 * scale
+    part = beam_forces(bonds, np.column_stack([u, theta]), np.full((len(X), 3), 7.0), rows=30,
+                       accumulate=True)
+    assert np.array_equal(part[30:], np.full((10, 3), 7.0))
+    assert np.abs(part[:30] - 7.0 - out[:30]).max() < 1e-12 * scale

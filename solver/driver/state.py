@@ -63,7 +63,8 @@ NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "
               (("model", "prescribed"), []), (("model", "lattice", "weibull_modulus"), None),
               (("model", "lattice", "seed"), 0),
               (("model", "lattice", "contact", "friction_model"), "viscous"),
-              (("model", "lattice", "contact", "tangential_stiffness"), 2.0 / 7.0))
+              (("model", "lattice", "contact", "tangential_stiffness"), 2.0 / 7.0),
+              (("model", "lattice", "gap"), None), (("model", "lattice", "radius_spread"), None))
 
 
 def _drop_unset(section, path, unset):

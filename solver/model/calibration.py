@@ -23,6 +23,11 @@ of the spacing):
   (1); a random packing's most stretched bond carries more, so under
   uniaxial tension its first bond breaks at break_strain / concentration.
 
+The same test calibrates 2D beam bonds between rotating particles
+(:func:`calibrate_beams`, not yet used by scenes): their transverse stiffness
+psi x the axial one lowers nu from the central-bond value to 0 near psi = 1,
+so Brent's method on the measured nu finds psi, then kappa sets E.
+
 A scene's bonds get kappa = E / E_measured (plane strain: E / (1 - nu^2)).
 Central bonds give the packing its own nu (an isotropic central-force network
 obeys the Cauchy relation lambda = mu in the affine limit, nu = 1/3 in 2D
@@ -37,7 +42,6 @@ from functools import lru_cache
 import numpy as np
 
 from solver.model import packing
-from solver.model.lattice import bond_triplets
 
 NU_TOLERANCE = 0.03
 SIDE = {2: 60.0, 3: 20.0}          # the sample's side [spacings]
@@ -76,16 +80,57 @@ def _solve(rows, cols, vals, n, fixed, value):
     return u
 
 
-@lru_cache(maxsize=16)
-def measure(dim: int, spread: float, gap: float, seed: int) -> Measured:
-    """E and nu of a packing with these settings at kappa = 1 (see the module)."""
+def bond_blocks(x, i, j, k, shear: float = 0.0) -> np.ndarray:
+    """Stiffness blocks [n_bonds, 2 nd, 2 nd] of bonds (i, j) at rest, DOFs
+    (particle i's, then j's): central springs k n n^T (nd = dim), or with
+    ``shear`` psi > 0 in 2D, beam bonds (nd = 3: u_x, u_y, theta) of
+    :mod:`solver.partitions.beam_bond` linearised, axial k, Euler-Bernoulli
+    bending k_b = psi k L^2 / 12 (transverse stiffness 12 k_b / L^2 = psi k)."""
+    d = x[j] - x[i]
+    L = np.linalg.norm(d, axis=1)
+    e1 = d / L[:, None]
+    dim = x.shape[1]
+    if not shear:
+        g = np.concatenate([-e1, e1], axis=1)
+        return k[:, None, None] * g[:, :, None] * g[:, None, :]
+    if dim != 2:
+        raise ValueError("beam bonds are 2D")
+    e2 = np.stack([-e1[:, 1], e1[:, 0]], axis=1)
+    zero, one = np.zeros(len(L)), np.ones(len(L))
+    g = np.stack([-e1[:, 0], -e1[:, 1], zero, e1[:, 0], e1[:, 1], zero], axis=1)
+    # phi_i = theta_i - beta, phi_j = theta_j - beta, beta = e2 . (u_j - u_i) / L
+    b = np.stack([e2[:, 0] / L, e2[:, 1] / L, zero, -e2[:, 0] / L, -e2[:, 1] / L, zero], axis=1)
+    B = np.stack([b + np.stack([zero, zero, one, zero, zero, zero], 1),
+                  b + np.stack([zero, zero, zero, zero, zero, one], 1)], axis=1)   # [nb, 2, 6]
+    kb = shear * k * L ** 2 / 12.0
+    Kb = kb[:, None, None] * np.array([[4.0, 2.0], [2.0, 4.0]])
+    return (k[:, None, None] * g[:, :, None] * g[:, None, :] +
+            np.einsum("bpr,bpq,bqs->brs", B, Kb, B))
+
+
+def _coo(i, j, blocks):
+    """COO triplets of the bond blocks on nd DOFs per particle."""
+    nd = blocks.shape[1] // 2
+    dofs = np.concatenate([i[:, None] * nd + np.arange(nd), j[:, None] * nd + np.arange(nd)],
+                          axis=1)
+    rows = np.repeat(dofs, 2 * nd, axis=1).ravel()
+    cols = np.tile(dofs, (1, 2 * nd)).ravel()
+    return rows, cols, blocks.ravel(), dofs
+
+
+@lru_cache(maxsize=64)
+def measure(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0) -> Measured:
+    """E and nu of a packing with these settings at kappa = 1 (see the module);
+    ``shear`` psi > 0: 2D beam bonds of transverse stiffness psi k (rotations)."""
     side = SIDE[dim]
     lo, hi = np.zeros(dim), np.full(dim, side)
     x, r = packing.poisson_disc(lo, hi, 0.5, spread, seed)
     i, j = packing.neighbour_pairs(x, r, gap)
     k = packing.bond_stiffness(x, r, i, j, 1.0, 1.0)
-    rows, cols, vals = bond_triplets(x, i, j, k, dim)
-    n = x.shape[0] * dim
+    blocks = bond_blocks(x, i, j, k, shear)
+    nd = blocks.shape[1] // 2
+    rows, cols, vals, dofs = _coo(i, j, blocks)
+    n = x.shape[0] * nd
     # a weak tie to the ground (1e-9 of the mean bond) keeps floppy particles
     # (too few bonds to hold them, rattlers) from making K singular
     rows, cols = np.concatenate([rows, np.arange(n)]), np.concatenate([cols, np.arange(n)])
@@ -94,32 +139,36 @@ def measure(dim: int, spread: float, gap: float, seed: int) -> Measured:
     left = np.flatnonzero(x[:, 0] < GRIP)
     right = np.flatnonzero(x[:, 0] > side - GRIP)
     mid = left[np.argsort(np.abs(x[left, 1:] - side / 2).sum(axis=1))]
-    fixed = [left * dim, right * dim, [mid[0] * dim + c for c in range(1, dim)]]
+    fixed = [left * nd, right * nd, [mid[0] * nd + c for c in range(1, dim)]]
     value = [np.zeros(left.size), np.full(right.size, eps * side), np.zeros(dim - 1)]
     if dim == 3:                                   # rotation about x
         other = left[np.argmax(np.abs(x[left, 1] - x[mid[0], 1]))]
-        fixed.append([other * dim + 2])
+        fixed.append([other * nd + 2])
         value.append([0.0])
     fixed = np.concatenate([np.asarray(f, np.int64) for f in fixed])
     value = np.concatenate([np.asarray(v, float) for v in value])
-    u = _solve(rows, cols, vals, n, fixed, value).reshape(-1, dim)
+    u = _solve(rows, cols, vals, n, fixed, value)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return _measured(x, r, i, j, k, u, side, dim)
+        return _measured(x, i, j, blocks, dofs, u, side)
 
 
-def _measured(x, r, i, j, k, u, side, dim):
+def _measured(x, i, j, blocks, dofs, u, side):
     """E, nu and the strain concentration of the solved sample (see the module)."""
+    dim = x.shape[1]
+    nd = blocks.shape[1] // 2
+    ut = u.reshape(-1, nd)[:, :dim]
     inner = np.all((x > WINDOW) & (x < side - WINDOW), axis=1)
     design = np.hstack([np.ones((inner.sum(), 1)), x[inner]])
-    grad = np.linalg.lstsq(design, u[inner], rcond=None)[0][1:].T     # du_a / dx_b
+    grad = np.linalg.lstsq(design, ut[inner], rcond=None)[0][1:].T     # du_a / dx_b
     mids = 0.5 * (x[i] + x[j])
     inside = np.all((mids > WINDOW) & (mids < side - WINDOW), axis=1)
     d = x[j[inside]] - x[i[inside]]
     L = np.linalg.norm(d, axis=1)
-    nvec = d / L[:, None]
-    stretch = np.einsum("ba,ba->b", u[j[inside]] - u[i[inside]], nvec)
+    # the force each bond needs at its end j (tension: along d), times d: the virial
+    f_j = np.einsum("brs,bs->br", blocks[inside], u[dofs[inside]])[:, nd:nd + dim]
     volume = (side - 2 * WINDOW) ** dim
-    sxx = np.sum(k[inside] * stretch * L * nvec[:, 0] ** 2) / volume
+    sxx = np.sum(f_j[:, 0] * d[:, 0]) / volume
+    stretch = np.einsum("ba,ba->b", ut[j[inside]] - ut[i[inside]], d) / L
     exx = grad[0, 0]
     lateral = np.mean([grad[c, c] for c in range(1, dim)])
     return Measured(sxx / exx, -lateral / exx, int(x.shape[0]), int(i.size),
@@ -147,3 +196,35 @@ def calibrate(E: float, nu: float, kind: str, spread: float, gap: float,
                          f"uniaxial test of {m.particles} particles); the material has nu = "
                          f"{nu:g} (allowed within {NU_TOLERANCE})")
     return target / E / m.E, m
+
+
+SHEAR_RANGE = (0.0, 2.0)      # psi searched by calibrate_beams
+
+
+def calibrate_beams(E: float, nu: float, kind: str, spread: float, gap: float,
+                    seed: int) -> tuple[float, float, Measured]:
+    """(kappa, psi, the packing measured at kappa = 1 and that psi) of 2D beam
+    bonds (:func:`bond_blocks`): psi, the bonds' transverse stiffness over
+    their axial one, sets nu (the packing's central-bond nu at psi = 0,
+    falling through 0 near psi = 1), found by Brent's method on the measured
+    nu to 1e-4; kappa then sets E.  ValueError for a nu outside the range
+    psi in SHEAR_RANGE covers, naming it."""
+    from scipy.optimize import brentq  # lazy: scipy loads only for a random packing
+    if kind == "solid":
+        raise ValueError("beam bonds are 2D (plane_stress or plane_strain)")
+    in_plane = nu / (1.0 - nu) if kind == "plane_strain" else nu
+    target = E / (1.0 - nu ** 2) if kind == "plane_strain" else E
+
+    def nu_at(psi):
+        return measure(2, float(spread), float(gap), int(seed), float(psi)).nu
+
+    lo, hi = (nu_at(p) for p in SHEAR_RANGE)
+    if not hi <= in_plane <= lo:
+        def plain(v):
+            return v / (1.0 + v) if kind == "plane_strain" else v
+        raise ValueError(f"beam bonds in a random packing (radius_spread {spread:g}, gap {gap:g}) "
+                         f"cover nu {plain(max(hi, 0.0)):.3g} to {plain(lo):.3g} in {kind}; the "
+                         f"material has nu = {nu:g}")
+    psi = brentq(lambda p: nu_at(p) - in_plane, *SHEAR_RANGE, xtol=1e-6, rtol=1e-10)
+    m = measure(2, float(spread), float(gap), int(seed), float(psi))
+    return target / E / m.E, psi, m

@@ -154,9 +154,12 @@ def build(spec, mesh) -> Transition:
     is_core = kept & ~is_band
     empty = _empty_cells(pts, band.cells, band_cell[is_band], points[is_band])
     if empty.size:
+        what = (f"particle of the random packing (radius {a / 2:g} m; {empty.size} such "
+                "cells); band cells must be large enough to hold particles" if note else
+                f"particle of spacing {a:g} m ({empty.size} such cells); the band must "
+                "overlap the lattice")
         raise SceneError(f"{key}: band cell {_label(band, int(empty[0]))} of group "
-                         f"{lat.transition!r} holds no particle of spacing {a:g} m "
-                         f"({empty.size} such cells); the band must overlap the lattice")
+                         f"{lat.transition!r} holds no {what}")
     if not is_core.any():
         raise SceneError(f"model.lattice.region: no {'particle' if note else 'lattice site'} "
                          f"of spacing {a:g} m lies in region {lat.region!r} outside the band")
