@@ -1,6 +1,6 @@
 // Brazilian disc (tensile splitting, ISRM curved jaws): a disc of radius R whose
 // outer ring of width h is one layer of coarse band cells around the DEM region
-// (the disc of radius R - h), loaded through two curved steel-less jaws: FE
+// (the disc of radius R - h), loaded through two curved jaws: FE
 // annular sectors R..R+p over the arcs 90 +- alpha and 270 +- alpha degrees,
 // pushed along y on their outer arcs.  Groups: solid (all cells), fem (jaws and
 // band), band, dem (the inner disc), top, bottom (the jaws' outer arcs).
@@ -37,7 +37,7 @@ Curve Loop(1) = {10, 11, 12, 13};
 Plane Surface(1) = {1};                    // the DEM region
 For k In {0:3}
   k1 = (k + 1) % 4;
-  Curve Loop(10 + k) = {10 + k, 40 + k1, -(20 + k), -(40 + k)};
+  Curve Loop(10 + k) = {40 + k, 20 + k, -(40 + k1), -(10 + k)};
   Plane Surface(10 + k) = {10 + k};
   n = Round((ang[k1] - ang[k] + 360 * (k == 3)) * Pi / 180 * (R - h / 2) / h);
   If (n < 1) n = 1; EndIf
@@ -45,9 +45,9 @@ For k In {0:3}
   Transfinite Curve{40 + k} = 2;
   Transfinite Surface{10 + k};
 EndFor
-Curve Loop(20) = {20, 51, -30, -50};
+Curve Loop(20) = {50, 30, -51, -20};
 Plane Surface(20) = {20};
-Curve Loop(22) = {22, 53, -32, -52};
+Curve Loop(22) = {52, 32, -53, -22};
 Plane Surface(22) = {22};
 Transfinite Curve{30} = Round(2 * alpha * Pi / 180 * (R - h / 2) / h) + 1;
 Transfinite Curve{32} = Round(2 * alpha * Pi / 180 * (R - h / 2) / h) + 1;
