@@ -61,6 +61,8 @@ class Measured:
     bonds: int
     coordination: float   # mean bonds per particle
     concentration: float  # the largest bond strain in the window / the applied strain
+    lateral: float        # minus the smallest (most compressed) bond strain / the applied
+    #                       strain: under uniaxial compression, the most stretched bond's
 
 
 def _solve(rows, cols, vals, n, fixed, value):
@@ -172,7 +174,8 @@ def _measured(x, i, j, blocks, dofs, u, side):
     exx = grad[0, 0]
     lateral = np.mean([grad[c, c] for c in range(1, dim)])
     return Measured(sxx / exx, -lateral / exx, int(x.shape[0]), int(i.size),
-                    2.0 * i.size / x.shape[0], float((stretch / L).max() / exx))
+                    2.0 * i.size / x.shape[0], float((stretch / L).max() / exx),
+                    float(-(stretch / L).min() / exx))
 
 
 def calibrate(E: float, nu: float, kind: str, spread: float, gap: float,

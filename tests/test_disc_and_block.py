@@ -1,7 +1,8 @@
-"""The Brazilian disc (configs/brazilian_disc.yaml): a random packing of bonded
-particles splits along its loaded diameter at the load the analytic estimate
-gives, the same on 1 and 2 ranks (the study with its figure is
-benchmarks/bench_brazilian.py)."""
+"""Strength tests of a random bonded packing: the Brazilian disc
+(configs/brazilian_disc.yaml) splits along its loaded diameter, the block in
+uniaxial compression (configs/compression_block.yaml) fails, each at the load
+the analytic estimate gives, the same on 1 and 2 ranks (the study with its
+figures is benchmarks/bench_strength.py)."""
 from __future__ import annotations
 
 import h5py
@@ -10,11 +11,13 @@ import numpy as np
 from conftest import raw_scene, run_cli, write_scene
 from solver.model import calibration
 
-R, T, ALPHA, V, RAMP = 0.02, 0.02, np.radians(10.0), 0.02, 5.0e-5
+R, T, ALPHA, RAMP = 0.02, 0.02, np.radians(10.0), 5.0e-5
 
 
-def split(tmp_path, n):
-    raw = raw_scene("brazilian_disc")
+def split(tmp_path, n, scene="brazilian_disc", v=0.02):
+    """(t, load on the driven edges from their work rate, broken bonds) of the
+    scene on n ranks; each driven edge moves at ``v``."""
+    raw = raw_scene(scene)
     raw["output"] = {"file": str(tmp_path / f"d{n}.h5"), "progress": 0, "energy_every": 20}
     proc = run_cli([write_scene(tmp_path / f"d{n}.yaml", raw)], n=n, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -22,7 +25,7 @@ def split(tmp_path, n):
         e = {k: f[f"energy/{k}"][()] for k in f["energy"]}
         b = f["broken_bonds"][()]
     t, W = e["t"], e["external_work"]
-    speed = np.where(t < RAMP, V * t / RAMP, V)
+    speed = np.where(t < RAMP, v * t / RAMP, v)
     P = np.divide(np.gradient(W, t), 2 * speed, out=np.zeros_like(t), where=speed > 0)
     return t, P, b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))]
 
@@ -48,3 +51,19 @@ def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(tmp_pat
     _, _, b2 = split(tmp_path, 2)
     assert b2.shape == b.shape and np.array_equal(b2[:, [0, 6, 7]], b[:, [0, 6, 7]])
     assert np.abs(b2[:, 3] - b[:, 3]).max() <= 1e-12 * b[:, 3].max()
+
+
+def test_the_block_fails_in_compression_at_the_estimated_stress(tmp_path):
+    """The block's stress P / (W' t) peaks within 15 % of E eps_c / c' (c' the
+    calibration's most stretched bond under uniaxial compression per unit
+    axial strain; measured: +10 %) as its first bonds break, then falls below
+    60 % within 50 us; the same bonds break on 2 ranks."""
+    t, P, b = split(tmp_path, 1, "compression_block", 0.05)
+    k = int(np.argmax(P))
+    ucs = P[k] / (0.024 * T)
+    estimate = 30.0e9 * 5.0e-4 / calibration.measure(2, 0.0, 1.0, 1).lateral
+    assert abs(ucs / estimate - 1) < 0.15, (ucs, estimate)
+    assert abs(b[0, 0] - t[k]) < 2e-5
+    assert P[(t > t[k]) & (t < t[k] + 5e-5)].min() < 0.6 * P[k]
+    _, _, b2 = split(tmp_path, 2, "compression_block", 0.05)
+    assert b2.shape == b.shape and np.array_equal(b2[:, [0, 6, 7]], b[:, [0, 6, 7]])
