@@ -56,14 +56,28 @@ def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(tmp_pat
 def test_the_block_fails_in_compression_at_the_estimated_stress(tmp_path):
     """The block's stress P / (W' t) peaks within 15 % of E eps_c / c' (c' the
     calibration's most stretched bond under uniaxial compression per unit
-    axial strain; measured: +10 %) as its first bonds break, then falls below
-    60 % within 50 us; the same bonds break on 2 ranks."""
+    axial strain; measured: +10 %) soon after its first bonds break (above 80 %
+    of the peak: brittle), then falls below 60 % within 50 us; the same bonds
+    break on 2 ranks."""
     t, P, b = split(tmp_path, 1, "compression_block", 0.05)
     k = int(np.argmax(P))
     ucs = P[k] / (0.024 * T)
     estimate = 30.0e9 * 5.0e-4 / calibration.measure(2, 0.0, 1.0, 1).lateral
     assert abs(ucs / estimate - 1) < 0.15, (ucs, estimate)
-    assert abs(b[0, 0] - t[k]) < 2e-5
+    assert np.interp(b[0, 0], t, P) > 0.8 * P[k]        # brittle: 99 % measured
     assert P[(t > t[k]) & (t < t[k] + 5e-5)].min() < 0.6 * P[k]
     _, _, b2 = split(tmp_path, 2, "compression_block", 0.05)
     assert b2.shape == b.shape and np.array_equal(b2[:, [0, 6, 7]], b[:, [0, 6, 7]])
+
+
+def test_a_split_disc_restarts_to_the_same_breaks(tmp_path):
+    """The disc stopped after its first breaks (0.85 ms) and restarted on 2
+    ranks breaks the same bonds at the same steps as one run on 1 rank: the
+    random packing and its calibration are rebuilt from the seed alone."""
+    from conftest import stop_and_restart
+    raw = raw_scene("brazilian_disc")
+    paths = stop_and_restart(raw, tmp_path, 1.0e-3, 8.5e-4, 2000, energy_every=20, n=2)
+    (b1, n1), (b2, n2) = [(b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))], b[b[:, 0] <= 8.5e-4].shape[0])
+                          for b in (h5py.File(p)["broken_bonds"][()] for p in paths)]
+    assert n1 > 0 and len(b1) > 100
+    assert b1.shape == b2.shape and np.array_equal(b1[:, [0, 6, 7]], b2[:, [0, 6, 7]])

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import raw_scene, refused, run_cli, write_scene
+from conftest import refused
 from solver.model import calibration, packing
+from test_plate import strong_laser
 
 
 @pytest.mark.parametrize("dim, spread", [(2, 0.0), (2, 0.3), (3, 0.2)])
@@ -138,34 +139,17 @@ def test_a_random_packing_needs_a_transition_band(tmp_path):
     assert "model.lattice.kind: random packings are laid in a transition band" in line, line
 
 
-def strong_laser(tmp_path, n):
-    """plate_fracture_random with a laser 4x as strong (tests/test_plate.py's set-up)."""
-    import h5py
-    raw = raw_scene("plate_fracture_random")
-    raw["heat"]["laser"]["power_density"] = 1.0e7
-    raw["heat"]["every"] = 25
-    raw["time"]["end"] = 5.89792e-4
-    raw["output"] = {"file": str(tmp_path / f"r{n}.h5"), "progress": 0, "energy_every": 50}
-    proc = run_cli([write_scene(tmp_path / f"r{n}.yaml", raw)], n=n, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    with h5py.File(tmp_path / f"r{n}.h5") as f:
-        b = f["broken_bonds"][()]
-        e = {k: f[f"energy/{k}"][()] for k in f["energy"]}
-        released = f["partitions/dem"].attrs["released_energy"]
-        return b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))], e, released, proc.stdout + proc.stderr
-
-
 def test_the_heated_plate_on_a_random_packing_cracks_the_same_on_one_and_two_ranks(tmp_path):
     """The random packing's plate cracks under the strong laser; kinetic +
     strain + released + dissipated = work to 3e-3; on 2 ranks the same bonds
     break at the same steps with the same strains (the packing is a function
     of the seed alone); the log states the packing and its calibration."""
-    b, e, released, log = strong_laser(tmp_path, 1)
+    b, e, released, _, log = strong_laser(tmp_path, 1, "plate_fracture_random")
     assert len(b) > 20
     assert "random packing:" in log and "which gives nu 0.3" in log, log
     audit = e["kinetic"][-1] + e["strain"][-1] + released + e["dissipated"][-1]
     assert abs(audit / e["external_work"][-1] - 1) < 3e-3
-    b2, *_ = strong_laser(tmp_path, 2)
+    b2, *_ = strong_laser(tmp_path, 2, "plate_fracture_random")
     assert b2.shape == b.shape
     assert np.array_equal(b2[:, [0, 6, 7]], b[:, [0, 6, 7]])
     assert np.abs(b2[:, 3] - b[:, 3]).max() <= 1e-12 * b[:, 3].max()
