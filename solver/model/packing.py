@@ -6,12 +6,14 @@ radius r_i, drawn uniformly from r (1 - s) .. r (1 + s) (r half the
 ``spacing``, s the ``radius_spread``), and no two particles overlap
 (|x_i - x_j| >= r_i + r_j).  Each new particle is tried in the shell
 (r_p + r_q) .. 2 (r_p + r_q) around an active one, 30 tries before that one
-retires, so the box is filled until no particle fits (a maximal packing: no
-hole holds another particle).  The draw is a function of the seed alone, so
-a scene is reproducible and the same on any number of ranks.
+retires, so the box is filled until hardly a particle of the mean radius
+fits (with a spread, holes for the smallest ones remain).  The draw is a
+function of the seed alone, so a scene is reproducible and the same on any
+number of ranks.
 
-Two particles are bonded when their surfaces are at most ``gap`` x their mean
-diameter apart: |x_i - x_j| <= (r_i + r_j)(1 + gap).  Bonds are central
+Two particles are bonded when they are Delaunay neighbours and their
+surfaces are at most ``gap`` x their mean diameter apart:
+|x_i - x_j| <= (r_i + r_j)(1 + gap).  Bonds are central
 (a spring k along the line of centres) with k = kappa E A / L, L the bond's
 length, A its cross-section (2 r t in 2D, t the thickness, pi r^2 in 3D, r
 the pair's mean radius), and one factor kappa for the whole packing: the
@@ -129,8 +131,9 @@ _BRIDSON = None
 
 
 def estimate(lo, hi, radius: float) -> float:
-    """About how many particles of mean ``radius`` a maximal packing of the
-    box [lo, hi] holds (packing fractions 0.62 in 2D, 0.42 in 3D, with room)."""
+    """An upper bound of how many particles of ``radius`` the box [lo, hi]
+    holds: its area (volume) over one particle's (maximal packings fill about
+    half of it)."""
     box = np.prod(np.asarray(hi, float) - np.asarray(lo, float))
     dim = len(lo)
     one = np.pi * radius ** 2 if dim == 2 else 4.0 / 3.0 * np.pi * radius ** 3

@@ -2,9 +2,10 @@
 
 The law is :mod:`solver.partitions.beam_bond`'s (a co-rotational
 Euler-Bernoulli/Timoshenko beam between rotating particles); this loop
-evaluates it for every bond b = (i, j) from the rest separation dX_b, its
-angle alpha0_b and the particles' displacements and rotations q = (u_x, u_y,
-theta) [n, 3], and adds the forces and torques to ``out`` [rows, 3] (rows >=
+evaluates it for every bond b = (i, j) from the rest separation dX_b and
+the particles' displacements and rotations q = (u_x, u_y, theta) [n, 3]
+(the chord's rotation is the angle from dX_b to the current separation, one
+atan2, or atan's series below 0.01 rad), and adds the forces and torques to ``out`` [rows, 3] (rows >=
 ``rows`` are another piece's particles).  Bonds come sorted by their first
 particle, so a particle's sum over its run stays in registers (as in
 :mod:`solver.partitions.bond_kernel`).  Not yet called by a partition: the
