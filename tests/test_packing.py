@@ -202,3 +202,21 @@ def test_the_calibration_beam_blocks_are_the_beam_bond_law_linearised():
         fm = np.concatenate([minus[0], minus[1][:, None]], axis=1).ravel()
         J[:, c] = -(fp - fm) / (2 * h)
     assert np.abs(J - K).max() < 1e-7 * np.abs(K).max()
+
+
+def test_strength_packing_scales_the_bonds_critical_strain_by_the_concentration(tmp_path):
+    """strength: packing gives every bond break_strain x the calibration's
+    strain concentration (the log states both); with kind square it is
+    refused."""
+    from conftest import raw_scene
+    from solver import scene as scene_mod
+    from solver.model import binding, continuum
+    raw = raw_scene("plate_fracture_random")
+    raw["model"]["lattice"]["strength"] = "packing"
+    raw["output"] = {"file": str(tmp_path / "m.h5")}
+    mdl = continuum.build(binding.bind(scene_mod.from_dict(raw)))
+    c = calibration.measure(2, 0.0, 1.0, 1).concentration
+    assert 1.3 < c < 1.8
+    assert mdl.lattice.break_strain == 3.08e-3 * c
+    line = refused("configs/plate_fracture.yaml", ["model.lattice.strength=packing"], tmp_path)
+    assert "model.lattice.strength: packing scales break_strain" in line, line

@@ -64,7 +64,8 @@ NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "
               (("model", "lattice", "seed"), 0),
               (("model", "lattice", "contact", "friction_model"), "viscous"),
               (("model", "lattice", "contact", "tangential_stiffness"), 2.0 / 7.0),
-              (("model", "lattice", "gap"), None), (("model", "lattice", "radius_spread"), None))
+              (("model", "lattice", "gap"), None), (("model", "lattice", "radius_spread"), None),
+              (("model", "lattice", "strength"), "bond"))
 
 
 def _drop_unset(section, path, unset):

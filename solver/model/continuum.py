@@ -319,6 +319,15 @@ def _with_heat(arrays, scene, mesh, particles=None):
     return dataclasses.replace(arrays, heat=heat.build(scene, mesh, particles, arrays.n_nodes))
 
 
+def break_strain_of(lat, zone=None):
+    """Each bond's critical strain: ``break_strain``, or with ``strength:
+    packing`` that times the random packing's strain concentration (so the
+    packing's first bond breaks at break_strain of uniaxial strain)."""
+    if lat.break_strain is None or lat.strength != "packing" or zone is None:
+        return lat.break_strain
+    return lat.break_strain * zone.concentration
+
+
 def weibull_of(lat):
     """(modulus, seed) of ``model.lattice``'s strength spread, or None."""
     return None if lat.weibull_modulus is None else (lat.weibull_modulus, lat.seed)
@@ -360,7 +369,8 @@ def _with_zone(scene, mesh, zone, cells, mass):
                            u0=np.zeros(n), v0=np.zeros(n),
                            material_D=elastic(scene.model.material).D(),
                            lattice=Lattice(bonds=zone.bonds, carried=zone.blocks,
-                                           geometry=lat.geometry, break_strain=lat.break_strain,
+                                           geometry=lat.geometry,
+                                           break_strain=break_strain_of(lat, zone),
                                            weibull=weibull_of(lat)),
                            contact=contact_of(lat), zone=zone)
 

@@ -68,6 +68,7 @@ class Transition:
     band_cells: dict            # family -> conn
     spacing: float
     packing: str | None = None  # what the random packing is (None: the regular lattice)
+    concentration: float = 1.0  # the packing's largest bond strain per uniaxial strain (lattice: 1)
 
     @property
     def n_core(self) -> int:
@@ -149,7 +150,7 @@ def build(spec, mesh) -> Transition:
     nodes = np.unique(np.concatenate([band.nodes, region.nodes]))
     lo, hi = pts[nodes].min(axis=0), pts[nodes].max(axis=0)
     sites = (_random if lat.kind == "random" else _square)(spec, pts, band, region, lo, hi)
-    points, mass, bi, bj, bk, band_cell, band_w, kept, note = sites
+    points, mass, bi, bj, bk, band_cell, band_w, kept, note, concentration = sites
     is_band = kept & (band_cell >= 0)
     is_core = kept & ~is_band
     empty = _empty_cells(pts, band.cells, band_cell[is_band], points[is_band])
@@ -202,7 +203,8 @@ def build(spec, mesh) -> Transition:
             blocks.append(("bond", conn, RankOneBonds(conn, g, bk[m], length[m])))
     node_mass = emb.to_nodes(mass[band_ids], n_mesh)
     return Transition(n_mesh, points[core_ids], mass[core_ids], bonds, blocks, node_mass,
-                      emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a, note)
+                      emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a, note,
+                      concentration)
 
 
 def _square(spec, pts, band, region, lo, hi):
@@ -226,7 +228,7 @@ def _square(spec, pts, band, region, lo, hi):
     share = mat.rho * (mat.depth * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
     mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
     kept &= mass > 0                               # a site outside every kept cell: no particle
-    return grid.points, mass, bi, bj, bk, band_cell, band_w, kept, None
+    return grid.points, mass, bi, bj, bk, band_cell, band_w, kept, None, 1.0
 
 
 def _inside(pts, band, region, particles):
@@ -278,7 +280,11 @@ def _random(spec, pts, band, region, lo, hi):
             f"{2 * i.size / ids.size:.2f} per particle), E calibrated (bond factor {kappa:.4g}) "
             f"on a uniaxial test of {measured.particles} particles, which gives nu {nu:.3f}; its "
             f"most stretched bond carries {measured.concentration:.2f} x the applied strain")
-    return points, mass, ids[i], ids[j], bk, band_cell, band_w, kept, note
+    if lat.strength == "packing":
+        note += (f"; bonds break at {measured.concentration:.3f} x break_strain (strength: "
+                 "packing)")
+    return (points, mass, ids[i], ids[j], bk, band_cell, band_w, kept, note,
+            measured.concentration)
 
 
 TILE_TOLERANCE = 1e-6     # a width is a whole number of spacings to this (in spacings)

@@ -309,6 +309,11 @@ class LatticeSpec:
         "Poisson-disc packing of particles of radius spacing/2 (radius_spread), bonded to their "
         "Delaunay neighbours within gap, E calibrated on a uniaxial test of the packing (nu about "
         "0.33 plane stress, 0.25 plane strain and 3D; needs transition; docs/bonds.md)", "square")
+    strength: Literal["bond", "packing"] = key(
+        "what break_strain is: bond, each bond's critical strain; packing (kind random), the "
+        "packing's uniaxial strain at its first break: each bond breaks at break_strain x the "
+        "calibration's strain concentration (about 1.5, logged), so a random packing is as "
+        "strong as the square lattice with the same break_strain", "bond")
     gap: float | None = key(
         "kind random: two particles are bonded when their surfaces are at most gap x their mean "
         "diameter apart (Delaunay neighbours); default 1.0", None, nonnegative=True)
@@ -340,6 +345,9 @@ class LatticeSpec:
         if self.spread >= 1.0:
             fail(f"{path}.radius_spread", f"{self.spread:g}: radii spacing/2 x (1 -+ spread) "
                  "need a spread below 1")
+        if self.strength == "packing" and (self.kind != "random" or self.break_strain is None):
+            fail(f"{path}.strength", "packing scales break_strain by a random packing's strain "
+                 "concentration: give kind: random and break_strain")
         if self.kind == "random" and not self.transition:
             fail(f"{path}.kind", "random packings are laid in a transition band and its region "
                  "(give transition); without one every particle is a mesh node")
