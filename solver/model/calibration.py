@@ -21,7 +21,10 @@ of the spacing):
 - the strain concentration: the largest bond strain in the window over
   eps_xx.  A square lattice's bonds along the load carry the applied strain
   (1); a random packing's most stretched bond carries more, so under
-  uniaxial tension its first bond breaks at break_strain / concentration.
+  uniaxial tension its first bond breaks at break_strain / concentration;
+- and ``lateral``: minus the most compressed bond's strain over eps_xx,
+  which (the test being linear) is the most stretched bond's strain per unit
+  uniaxial compression (an affine network's would be nu).
 
 The same test calibrates 2D beam bonds between rotating particles
 (:func:`calibrate_beams`, not yet used by scenes): their transverse stiffness
@@ -31,7 +34,8 @@ so Brent's method on the measured nu finds psi, then kappa sets E.
 A scene's bonds get kappa = E / E_measured (plane strain: E / (1 - nu^2)).
 Central bonds give the packing its own nu (an isotropic central-force network
 obeys the Cauchy relation lambda = mu in the affine limit, nu = 1/3 in 2D
-and 1/4 in 3D, relaxation lowers it); ``calibrate`` refuses a material whose
+and 1/4 in 3D; relaxation moves it a little: 0.33-0.34 and 0.24 measured);
+``calibrate`` refuses a material whose
 nu is further than NU_TOLERANCE from it.
 """
 from __future__ import annotations
@@ -61,8 +65,8 @@ class Measured:
     bonds: int
     coordination: float   # mean bonds per particle
     concentration: float  # the largest bond strain in the window / the applied strain
-    lateral: float        # minus the smallest (most compressed) bond strain / the applied
-    #                       strain: under uniaxial compression, the most stretched bond's
+    lateral: float        # minus the most compressed bond's strain / the applied strain:
+    #                       the most stretched bond's per unit uniaxial compression
 
 
 def _solve(rows, cols, vals, n, fixed, value):
