@@ -1,8 +1,8 @@
 """Strength tests of a random bonded packing: the Brazilian disc
 (configs/brazilian_disc.yaml) splits along its loaded diameter, the block in
 uniaxial compression (configs/compression_block.yaml) fails, each at the load
-the analytic estimate gives, the same on 1 and 2 ranks (the study with its
-figures is benchmarks/bench_strength.py)."""
+the analytic estimate gives; a disc restarted on 2 ranks breaks as on 1 (the
+study with its figures is benchmarks/bench_strength.py)."""
 from __future__ import annotations
 
 import h5py
@@ -35,8 +35,8 @@ def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(tmp_pat
     below half of it within 50 us; Hondros's centre stress at the peak is the
     estimate E eps_c / (c (1 + 3 nu)) within 10 % (measured: +6 %); over 90 %
     of the broken bonds lie within 5 mm of the loaded diameter and they reach
-    from y < -14 mm to y > 14 mm (the disc's core is 18 mm); on 2 ranks the
-    same bonds break at the same steps."""
+    from y < -14 mm to y > 14 mm (the disc's core is 18 mm).  (1 vs 2 ranks:
+    the restart test below.)"""
     t, P, b = split(tmp_path, 1)
     k = int(np.argmax(P))
     assert 0.5e-3 < t[k] < 0.99e-3
@@ -48,17 +48,13 @@ def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(tmp_pat
     near = np.abs(b[:, 1]) < 5e-3
     assert near.mean() > 0.9
     assert b[near, 2].min() < -0.014 and b[near, 2].max() > 0.014
-    _, _, b2 = split(tmp_path, 2)
-    assert b2.shape == b.shape and np.array_equal(b2[:, [0, 6, 7]], b[:, [0, 6, 7]])
-    assert np.abs(b2[:, 3] - b[:, 3]).max() <= 1e-12 * b[:, 3].max()
 
 
 def test_the_block_fails_in_compression_at_the_estimated_stress(tmp_path):
     """The block's stress P / (W' t) peaks within 15 % of E eps_c / c' (c' the
     calibration's most stretched bond under uniaxial compression per unit
     axial strain; measured: +10 %) soon after its first bonds break (above 80 %
-    of the peak: brittle), then falls below 60 % within 50 us; the same bonds
-    break on 2 ranks."""
+    of the peak: brittle), then falls below 60 % within 50 us."""
     t, P, b = split(tmp_path, 1, "compression_block", 0.05)
     k = int(np.argmax(P))
     ucs = P[k] / (0.024 * T)
@@ -66,14 +62,14 @@ def test_the_block_fails_in_compression_at_the_estimated_stress(tmp_path):
     assert abs(ucs / estimate - 1) < 0.15, (ucs, estimate)
     assert np.interp(b[0, 0], t, P) > 0.8 * P[k]        # brittle: 99 % measured
     assert P[(t > t[k]) & (t < t[k] + 5e-5)].min() < 0.6 * P[k]
-    _, _, b2 = split(tmp_path, 2, "compression_block", 0.05)
-    assert b2.shape == b.shape and np.array_equal(b2[:, [0, 6, 7]], b[:, [0, 6, 7]])
 
 
 def test_a_split_disc_restarts_to_the_same_breaks(tmp_path):
     """The disc stopped after its first breaks (0.85 ms) and restarted on 2
     ranks breaks the same bonds at the same steps as one run on 1 rank: the
-    random packing and its calibration are rebuilt from the seed alone."""
+    random packing and its calibration are rebuilt from the seed alone, and
+    the particles' rank does not change what breaks (benchmarks/bench_strength.py
+    runs both tests whole on 2 ranks too)."""
     from conftest import stop_and_restart
     raw = raw_scene("brazilian_disc")
     paths = stop_and_restart(raw, tmp_path, 1.0e-3, 8.5e-4, 2000, energy_every=20, n=2)
