@@ -326,6 +326,18 @@ def test_plan_lists_the_candidates_with_their_steps(tmp_path):
     assert re.search(r"ns per MatMult nonzero", proc.stdout)
 
 
+@pytest.mark.parametrize("scene", ["plate_fracture", "brazilian_disc"])
+def test_plan_refuses_a_lattice_scene_in_one_line(scene):
+    """./run.sh plan on a scene with a bonded lattice (regular or random): one
+    line naming model.lattice, exit 2 (it used to fail on the lattice's
+    particles, which no levelled partition owns)."""
+    from conftest import ROOT, run_cli
+    proc = run_cli(["plan", ROOT / "configs" / f"{scene}.yaml"])
+    assert proc.returncode == 2, proc.stderr
+    line, = proc.stderr.strip().splitlines()
+    assert line.startswith("error: model.lattice: plan predicts the levels"), line
+
+
 def test_an_unstable_level_is_refused_naming_its_critical_step(tmp_path):
     """A time.dt beyond the finest level's critical step: one line naming the
     level and its critical step, before stepping; guard.stable_step false runs

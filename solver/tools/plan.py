@@ -145,6 +145,10 @@ def main(argv=None) -> int:
             raise SceneError(f"--scaling {args.scaling}: multiples above 1 of the smallest bound")
         init([])
         scene = binding.load(args.scene, args.sets)
+        if scene.model.kind == "continuum" and scene.model.lattice is not None:
+            raise SceneError("model.lattice: plan predicts the levels of a continuum's or a "
+                             "network's elements; a lattice's fem and dem partitions are "
+                             "hand-written (their steps and costs are in the run's log)")
         if scene.partitions != "auto":
             scene = dataclasses.replace(scene, partitions="auto")
         scene = binding.bind(scene)
