@@ -80,6 +80,38 @@ def load(path, v):
     return t, P, b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))], audit, wall
 
 
+def figure(path, size, widths, t, load, estimate, label, broken, outlines, box, title,
+           colorbar=False):
+    """Load against time with its estimate (left) and the broken bonds coloured
+    by break time over the specimen's outlines (right), written to ``path``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (a0, a1) = plt.subplots(1, 2, figsize=size,
+                                 gridspec_kw=None if widths is None else {"width_ratios": widths})
+    a0.plot(t, load)
+    a0.axhline(estimate, color="r", ls=":", label="estimate")
+    a0.set_xlabel("t [ms]")
+    a0.set_ylabel(label)
+    a0.legend()
+    a0.grid(alpha=0.3)
+    for kind, at, extent, style in outlines:
+        a1.add_patch(plt.Circle(at, extent, fill=False, **style) if kind == "circle" else
+                     plt.Rectangle(at, *extent, fill=False, **style))
+    sc = a1.scatter(1e3 * broken[:, 1], 1e3 * broken[:, 2], s=3,
+                    c=1e6 * (broken[:, 0] - broken[0, 0]), cmap="viridis")
+    if colorbar:
+        fig.colorbar(sc, ax=a1, label="break time after the first [us]")
+    a1.set_aspect("equal")
+    a1.set_xlim(*box[:2])
+    a1.set_ylim(*box[2:])
+    a1.set_xlabel("x [mm]")
+    a1.set_title(title.format(n=len(broken)), fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def same_breaks(one, two):
     return two.shape == one.shape and np.array_equal(two[:, [0, 6, 7]], one[:, [0, 6, 7]])
 
@@ -138,48 +170,15 @@ def main():
              f"Compressive over tensile strength: {ucs / sigma:.2f} (estimates: "
              f"{ucs_estimate / estimate:.2f})."]
     write("bench_strength", lines)
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, (a0, a1) = plt.subplots(1, 2, figsize=(10, 4.2))
-    a0.plot(1e3 * t, P / 1e3)
-    a0.axhline(estimate / hondros / 1e3, color="r", ls=":", label="estimate")
-    a0.set_xlabel("t [ms]")
-    a0.set_ylabel("load P [kN]")
-    a0.legend()
-    a0.grid(alpha=0.3)
-    a1.add_patch(plt.Circle((0, 0), 20, fill=False))
-    a1.add_patch(plt.Circle((0, 0), 18, fill=False, ls=":", color="0.6"))
-    sc = a1.scatter(1e3 * b[:, 1], 1e3 * b[:, 2], s=3, c=1e6 * (b[:, 0] - b[0, 0]), cmap="viridis")
-    fig.colorbar(sc, ax=a1, label="break time after the first [us]")
-    a1.set_aspect("equal")
-    a1.set_xlim(-22, 22)
-    a1.set_ylim(-22, 22)
-    a1.set_xlabel("x [mm]")
-    a1.set_title(f"{len(b)} broken bonds", fontsize=10)
-    fig.tight_layout()
-    fig.savefig("results/brazilian_disc.png", dpi=110)
-    plt.close(fig)
-    fig, (a0, a1) = plt.subplots(1, 2, figsize=(8, 4.6), gridspec_kw={"width_ratios": [1.4, 1]})
-    a0.plot(1e3 * tb, Pb / (WIDTH * T) / 1e6)
-    a0.axhline(ucs_estimate / 1e6, color="r", ls=":", label="estimate")
-    a0.set_xlabel("t [ms]")
-    a0.set_ylabel("P / (W t) [MPa]")
-    a0.legend()
-    a0.grid(alpha=0.3)
-    a1.add_patch(plt.Rectangle((0, 0), 20, 40, fill=False, ls=":", color="0.6"))
-    a1.add_patch(plt.Rectangle((-2, -2), 24, 44, fill=False))
-    first = bb[bb[:, 0] <= tb[kb] + 5e-5]
-    a1.scatter(1e3 * first[:, 1], 1e3 * first[:, 2], s=3, c=1e6 * (first[:, 0] - first[0, 0]),
-               cmap="viridis")
-    a1.set_aspect("equal")
-    a1.set_xlim(-4, 24)
-    a1.set_ylim(-4, 44)
-    a1.set_xlabel("x [mm]")
-    a1.set_title(f"{len(first)} bonds broken by 50 us after the peak", fontsize=9)
-    fig.tight_layout()
-    fig.savefig("results/compression_block.png", dpi=110)
-    plt.close(fig)
+    figure("results/brazilian_disc.png", (10, 4.2), None, 1e3 * t, P / 1e3,
+           estimate / hondros / 1e3, "load P [kN]", b,
+           [("circle", (0, 0), 20, {}), ("circle", (0, 0), 18, {"ls": ":", "color": "0.6"})],
+           (-22, 22, -22, 22), f"{len(b)} broken bonds", colorbar=True)
+    figure("results/compression_block.png", (8, 4.6), [1.4, 1], 1e3 * tb, Pb / (WIDTH * T) / 1e6,
+           ucs_estimate / 1e6, "P / (W t) [MPa]", bb[bb[:, 0] <= tb[kb] + 5e-5],
+           [("rectangle", (0, 0), (20, 40), {"ls": ":", "color": "0.6"}),
+            ("rectangle", (-2, -2), (24, 44), {})],
+           (-4, 24, -4, 44), "{n} bonds broken by 50 us after the peak")
     print("figures: results/brazilian_disc.png, results/compression_block.png")
 
 
