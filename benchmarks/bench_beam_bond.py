@@ -14,7 +14,8 @@ in one process:
   reference;
 - the central-bond loop of today's lattices (solver/partitions/bond_kernel.py)
   on the same bonds, for scale: what rotations and bending cost;
-- a STREAM-like triad (numpy, a = b + 3 c) on this machine, the bandwidth limit.
+- a STREAM-like triad (numpy, a = b + 3 c; bench_throughput.py's) on this
+  machine, the bandwidth limit.
 The loop's traffic is counted as the bytes it must move at least: per bond
 the rest separation and length, three stiffnesses and two indices (64 B), per particle its (u_x, u_y, theta) read once and (f_x, f_y, torque)
 read and written (72 B).  Its time against that traffic over the triad's
@@ -27,13 +28,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
+from bench_throughput import best, triad  # noqa: E402
 from tables import write  # noqa: E402
 
 from solver.model import packing  # noqa: E402
@@ -42,23 +43,6 @@ from solver.partitions.beam_bond_kernel import beam_forces  # noqa: E402
 from solver.partitions.bond_kernel import bond_forces  # noqa: E402
 
 BOND_BYTES, PARTICLE_BYTES = 64, 72
-
-
-def best(fn, repeat=5, number=10):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        for _ in range(number):
-            fn()
-        times.append((time.perf_counter() - t0) / number)
-    return min(times)
-
-
-def triad(n=20_000_000):
-    """Bytes/s of a = b + 3 c in numpy (two passes: 5 x 8 bytes per element)."""
-    a, b, c = np.zeros(n), np.ones(n), np.ones(n)
-    t = best(lambda: np.add(b, np.multiply(c, 3.0, out=a), out=a), repeat=5, number=3)
-    return 5 * 8 * n / t
 
 
 def main(argv=None):
@@ -77,13 +61,13 @@ def main(argv=None):
     beam_forces(bonds, q, out)                                  # compile
     f, t = bonds.forces(q[:, :2], q[:, 2])
     agree = max(np.abs(out[:, :2] - f).max(), np.abs(out[:, 2] - t).max()) / np.abs(f).max()
-    t_loop = best(lambda: beam_forces(bonds, q, out))
+    t_loop = best(lambda: beam_forces(bonds, q, out), repeat=5, number=10)
     t_numpy = best(lambda: bonds.forces(q[:, :2], q[:, 2]), repeat=3, number=2)
     dX, u2, out2 = x[j] - x[i], np.ascontiguousarray(q[:, :2]), np.zeros((len(x), 2))
     alive, limit, snapped = np.ones(i.size, bool), np.full(i.size, np.inf), np.zeros(i.size, np.int64)
     central = (dX, u2, i, j, k, L, alive, limit, out2, len(x), snapped, False)
     bond_forces(*central)
-    t_central = best(lambda: bond_forces(*central))
+    t_central = best(lambda: bond_forces(*central), repeat=5, number=10)
     bw = triad()
     nb, n = i.size, len(x)
     traffic = nb * BOND_BYTES + n * PARTICLE_BYTES

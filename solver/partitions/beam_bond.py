@@ -54,7 +54,7 @@ class BeamBonds:
         n = self.i.size
         self.L0 = np.linalg.norm(self.rest, axis=1)
         self.alpha0 = np.arctan2(self.rest[:, 1], self.rest[:, 0])
-        self.k_n = np.broadcast_to(np.asarray(k_n, float), (n,))
+        self.k_n = np.array(np.broadcast_to(np.asarray(k_n, float), (n,)))   # contiguous
         k_b = np.broadcast_to(np.asarray(k_b, float), (n,))
         Phi = np.broadcast_to(np.asarray(phi, float), (n,))
         self.k_diag = k_b * (4.0 + Phi) / (1.0 + Phi)          # K_b's entries

@@ -84,7 +84,6 @@ def beam_forces(bonds, q, out, rows=None, accumulate=False):
     ``bonds`` (sorted by i) at ``q`` [n, 3] = (u_x, u_y, theta)."""
     if not accumulate:
         out[:] = 0.0
-    _loop(bonds.rest, q, bonds.i, bonds.j, bonds.L0,
-          np.ascontiguousarray(bonds.k_n), np.ascontiguousarray(bonds.k_diag),
-          np.ascontiguousarray(bonds.k_off), out, len(out) if rows is None else rows)
+    _loop(bonds.rest, q, bonds.i, bonds.j, bonds.L0, bonds.k_n, bonds.k_diag, bonds.k_off, out,
+          len(out) if rows is None else rows)
     return out
