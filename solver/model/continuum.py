@@ -319,13 +319,13 @@ def _with_heat(arrays, scene, mesh, particles=None):
     return dataclasses.replace(arrays, heat=heat.build(scene, mesh, particles, arrays.n_nodes))
 
 
-def break_strain_of(lat, zone=None):
+def break_strain_of(lat, zone):
     """Each bond's critical strain: ``break_strain``, or with ``strength:
     packing`` that times the random packing's strain concentration (so the
     packing's first bond breaks at break_strain of uniaxial strain)."""
-    if lat.break_strain is None or lat.strength != "packing" or zone is None:
+    if lat.strength != "packing":
         return lat.break_strain
-    return lat.break_strain * zone.concentration
+    return lat.break_strain * zone.concentration       # validated: kind random, break_strain
 
 
 def weibull_of(lat):
