@@ -324,14 +324,13 @@ def test_3d_transition_zone_on_a_random_packing(tmp_path):
     push arrives beyond the DEM region as in the FEM-only run (peak velocity
     within 5 %).  The tet4 band's cells are smaller than the particles: 29 of
     them hold none, which is refused, naming one."""
-    tet = 0
-    raw = bar3d(tet)
+    raw = bar3d(0)
     raw["model"]["lattice"].update(kind="random", seed=2)
     bound, mdl = model_of(raw, tmp_path)
     assert abs(mdl.mass.sum() - 2700.0 * 0.008 * 0.0012 ** 2) < 1e-12 * mdl.mass.sum()
     assert_rigid_motions_exert_nothing(mdl)
     coupled = run_scene(raw, tmp_path)
-    fem = run_scene(bar3d(tet, transition=False), tmp_path)
+    fem = run_scene(bar3d(0, transition=False), tmp_path)
     v_c, v_f = coupled.probes["P"]["velocity"], fem.probes["P"]["velocity"]
     peak = np.abs(v_f).max()
     assert abs(np.abs(v_c).max() - peak) < 0.05 * peak, (np.abs(v_c).max(), peak)
