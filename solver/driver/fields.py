@@ -61,8 +61,10 @@ class FieldWriter(Observer):
         self.parts = parts
         self.heating = heating
         self.every = scene.output.fields.every
-        self.dim = mdl.dof
+        self.dof = mdl.dof
+        self.dim = mdl.points.shape[1]
         self.shell = mdl.shells is not None      # 6 DOFs: u and rotations
+        self.rotating = mdl.rotary is not None   # 2D particles: u_x, u_y, theta
         self.n = mdl.n_nodes
         self.writers = []
         self.n_open = 0
@@ -121,21 +123,21 @@ class FieldWriter(Observer):
     def write(self, t: float):
         """A frame of the current state at time ``t`` (collective)."""
         self.last = t
-        local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dim),
-                  p.V[:p.n_own].reshape(-1, self.dim)) for p in self.parts]
+        local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dof),
+                  p.V[:p.n_own].reshape(-1, self.dof)) for p in self.parts]
         damage = [(p.layout.owned, p.force.damage()) for p in self.parts
                   if p.force.break_strain is not None]
         chunks = self.comm.gather((local, damage), root=0) if self.comm.size > 1 else \
             [(local, damage)]
         if self.comm.rank != 0:
             return
-        width = max(self.dim, 3)
+        width = max(self.dof, 3)
         u, v = np.zeros((self.n, width)), np.zeros((self.n, width))
         broken = np.zeros(self.n) if any(d for _, d in chunks) else None
         for chunk, dmg in chunks:
             for nodes, uu, vv in chunk:
-                u[nodes, :self.dim] = uu
-                v[nodes, :self.dim] = vv
+                u[nodes, :self.dof] = uu
+                v[nodes, :self.dof] = vv
             for nodes, frac in dmg:
                 broken[nodes] = frac
         flat = u[:, :self.dim].ravel()
@@ -146,6 +148,10 @@ class FieldWriter(Observer):
         point = {"displacement": u[:, :3], "velocity": v[:, :3]}
         if self.shell:
             point["rotation"] = u[:, 3:6]
+        elif self.rotating:                  # theta about z, then no third component
+            point = {"displacement": np.pad(u[:, :2], ((0, 0), (0, 1))),
+                     "velocity": np.pad(v[:, :2], ((0, 0), (0, 1))),
+                     "rotation": u[:, 2].copy(), "angular_velocity": v[:, 2].copy()}
         if self.heating is not None:                 # every rank holds the same temperatures
             point["temperature"] = self.heating.T_node
         cell = {"stress": stress} if stress else {}

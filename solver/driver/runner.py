@@ -168,7 +168,7 @@ def _stepped(scene, comm, say, asm, probes, guard, heating, report, stop, start)
     if fields and rank == 0:
         written = fields.written()
         if result.broken is not None and len(result.broken):
-            written += write_cracks(scene.output_file, result.broken, mdl.dof)
+            written += write_cracks(scene.output_file, result.broken, mdl.points.shape[1])
         result.attrs["field_files"] = np.array(written, dtype=object)
     if scene.reference != "none" and not failure and result.probes:
         add_reference(result, mdl, scene, comm, say)

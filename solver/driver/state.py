@@ -65,7 +65,8 @@ NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "
               (("model", "lattice", "contact", "friction_model"), "viscous"),
               (("model", "lattice", "contact", "tangential_stiffness"), 2.0 / 7.0),
               (("model", "lattice", "gap"), None), (("model", "lattice", "radius_spread"), None),
-              (("model", "lattice", "strength"), "bond"))
+              (("model", "lattice", "strength"), "bond"),
+              (("model", "lattice", "bond"), "central"))
 
 
 def _drop_unset(section, path, unset):

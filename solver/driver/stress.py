@@ -110,6 +110,12 @@ def bond_row(mdl, node: int, c: int, rho: float, lattice: bool = True, thermal=N
                 thermal.append((np.array([other[b], node]), np.full(2, 0.5 * w * L)))
     for _, conn, blocks in mdl.lattice.carried:
         sel = np.flatnonzero(conn[:, -1] == node)             # band-core bonds end on the core
+        if hasattr(blocks, "d"):         # beams: f_core,c d_c with f_core = -(K u)_core, d band -> core
+            for b in sel:
+                rows = blocks[b][-dim:-dim + 2][c] * blocks.d[b][c] / (2 * V)
+                nodes += list(conn[b])
+                coefs += list(rows.reshape(-1, dim))
+            continue
         for b in sel:
             g = blocks.g[b].reshape(-1, dim)                  # elongation = sum_a g_a . u_a
             n = g[-1]                                         # unit vector band -> core
@@ -190,7 +196,8 @@ class StressProbes:
     def values(self) -> dict:
         """{probe name: sigma} of this rank's probes (collective).  The lattice
         bonds of a nonlinear partition count in their current configuration
-        (broken ones not at all): 1/(2V) sum k (L - L0) d_c^2 / L."""
+        (broken ones not at all): 1/(2V) sum f_c d_c, f the bond's force on the
+        probed particle's neighbour side (central: k (L - L0) d / L)."""
         got = dict.fromkeys(self.no_stress, float("nan"))
         heat = self.heating
         for S, u, out_vec, out, rows in self.ops:
@@ -204,11 +211,7 @@ class StressProbes:
         for force, u, probes in self.current:
             disp = force.displacements(u)           # collective (ghost particles)
             for name, loc, at, c, V in probes:
-                d = force.separations(disp, at)
-                L = np.linalg.norm(d, axis=1)
-                pull = np.where(force.alive[at], force.k[at] * (L - force.L0[at]) /
-                                np.where(L > 0, L, 1.0), 0.0)
-                got[name] += float(np.sum(pull * d[:, c] ** 2)) / (2 * V)
+                got[name] += force.virial(disp, at, c) / (2 * V)
                 if force.contact is not None:
                     got[name] += force.contact.stress(disp, force.alive, loc, c) / (2 * V)
         return got

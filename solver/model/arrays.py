@@ -51,6 +51,7 @@ class Model:
     contact: ClassVar[tuple | None] = None
     heat: ClassVar[object] = None
     zone: ClassVar[object] = None
+    rotary: ClassVar[None] = None
     gravity: ClassVar[None] = None
     motions: ClassVar[tuple] = ()
 
@@ -149,11 +150,16 @@ def spring_triplets(li, lj, k):
 
 def dof_masses(model, held) -> np.ndarray:
     """The lumped mass of every DOF of nodes ``held``: the node's mass, or for
-    the rotations of shell nodes (6 DOFs) its rotary inertia."""
+    the rotations of shell nodes (6 DOFs) and of rotating particles its rotary
+    inertia."""
     m = np.repeat(model.mass[held], model.dofmap.counts[held])
     if model.shells is not None:
         m = m.reshape(-1, 6)
         m[:, 3:] = model.shells.inertia[held][:, None]
+        m = m.ravel()
+    elif model.rotary is not None:           # rotating particles: DOFs past the spatial ones
+        m = m.reshape(-1, model.dof)
+        m[:, model.points.shape[1]:] = model.rotary[held][:, None]
         m = m.ravel()
     return m
 

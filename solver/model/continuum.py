@@ -26,6 +26,7 @@ from solver.model.elements import elastic
 from solver.model.interface import Lattice, Shells
 from solver.errors import SceneError
 from solver.memory import zeros_if_zero
+from solver.model.calibration import beam_blocks
 from solver.model.lattice import cubic, square
 
 
@@ -49,6 +50,7 @@ class ContinuumArrays:
     contact: ContactSettings | None = None        # settings of model.lattice.contact (contact_of), or None
     heat: object = None            # solver.model.heat.Conduction (scene key heat), or None
     zone: object = None            # the Transition (model.lattice.transition), else None
+    rotary: np.ndarray | None = None   # [n_nodes] inertia of rotating particles' rotations, or None
     gravity: np.ndarray | None = None   # body acceleration [dim] (scene key gravity), or None
     motions: tuple = ()            # prescribed motions (solver.model.prescribed.Motion)
 
@@ -85,12 +87,14 @@ class ContinuumArrays:
         lat = self.lattice
         if lat is not None:
             bonds = lat.bonds
+            bending = lat.bending
             if bonds:
                 bi, bj, k = bonds
                 keep = inh[bi] | inh[bj]
                 bonds = (bi[keep], bj[keep], k[keep])
+                bending = bending[keep] if bending is not None else None
             lat = dataclasses.replace(lat, bonds=bonds, overlap_cells=touching(lat.overlap_cells),
-                                      carried=touching(lat.carried))
+                                      carried=touching(lat.carried), bending=bending)
         return dataclasses.replace(self, cells=touching(self.cells, body), lattice=lat,
                                    u0=zeros_if_zero(self.u0), v0=zeros_if_zero(self.v0))
 
@@ -126,7 +130,8 @@ class ContinuumArrays:
             inh = self._held(held)
             keep = inh[bi] & inh[bj]
             conn = np.stack([bi[keep], bj[keep]], axis=1)
-            out.append((conn, BondStiffness(self.points, conn, k[keep])))
+            out.append((conn, BondStiffness(self.points, conn, k[keep]) if lat.bending is None
+                        else BeamStiffness(self.points, conn, k[keep], lat.bending[keep])))
         return out + self._cell_blocks(lat.overlap_cells, held) + \
             self._cell_blocks(lat.carried, held)
 
@@ -151,12 +156,40 @@ class BondStiffness:
     def __len__(self) -> int:
         return len(self.conn)
 
+    @classmethod
+    def joined(cls, parts, conn) -> "BondStiffness":
+        """The bonds of ``parts`` (their connectivities together: ``conn``)."""
+        return cls(parts[0].points, conn, np.concatenate([p.k for p in parts]))
+
     def __getitem__(self, idx) -> np.ndarray:
         c, k = self.conn[idx], self.k[idx]
         n = self.points[c[:, 1]] - self.points[c[:, 0]]
         n = n / np.linalg.norm(n, axis=1)[:, None]
         nn = k[:, None, None] * np.einsum("bi,bj->bij", n, n)
         return np.block([[nn, -nn], [-nn, nn]])
+
+
+class BeamStiffness(BondStiffness):
+    """Blocks [6, 6] of 2D beam bonds at rest (axial k, bending k_b) on the
+    DOFs (u_x, u_y, theta) of their two particles
+    (:func:`solver.model.calibration.beam_blocks`), computed when asked."""
+
+    def __init__(self, points, conn, k, k_b):
+        super().__init__(points, conn, k)
+        self.k_b = k_b
+
+    def __getitem__(self, idx) -> np.ndarray:
+        c = self.conn[idx]
+        return beam_blocks(self.points[c[:, 1]] - self.points[c[:, 0]], self.k[idx],
+                           self.k_b[idx])
+
+    @classmethod
+    def joined(cls, parts, conn) -> "BeamStiffness":
+        return cls(parts[0].points, conn, np.concatenate([p.k for p in parts]),
+                   np.concatenate([p.k_b for p in parts]))
+
+    def subset(self, mask) -> "BeamStiffness":
+        return BeamStiffness(self.points, self.conn[mask], self.k[mask], self.k_b[mask])
 
 
 def attach_lattice(scene, mesh, mass, cells, reach: int = 1):
@@ -360,17 +393,25 @@ def _with_zone(scene, mesh, zone, cells, mass):
                          f"cells weighs on it ({massless.size} such nodes); refine the lattice "
                          "or coarsen the band")
     n_nodes = zone.n_mesh + zone.n_core
-    n = n_nodes * dim
     lat = scene.model.lattice
-    return ContinuumArrays(dof=dim, points=np.concatenate([mesh.points, zone.points]),
+    dof, rotary = dim, None
+    if zone.bending is not None:           # rotating particles: (u_x, u_y, theta) on every node
+        dof = dim + 1
+        cells = [(fam, conn, shell_model.Padded(Ke, fam.n_nodes, dim, dof)) for fam, conn, Ke in cells]
+        rotary = np.ones(n_nodes)            # (mesh nodes: never used, their rotation is fixed)
+        rotary[zone.n_mesh:] = 0.5 * zone.mass * zone.radii ** 2
+    fixed = fixed_dofs(scene, mesh, n_nodes, dof)
+    if rotary is not None:
+        fixed.reshape(n_nodes, dof)[:zone.n_mesh, dim:] = True
+    n = n_nodes * dof
+    return ContinuumArrays(dof=dof, points=np.concatenate([mesh.points, zone.points]),
                            mass=np.concatenate([mass, zone.mass]), cells=cells,
-                           fixed=fixed_dofs(scene, mesh, n_nodes, dim),
-                           loads=tuple(load_list(scene, mesh, dim, dim)),
-                           u0=np.zeros(n), v0=np.zeros(n),
+                           fixed=fixed, loads=tuple(load_list(scene, mesh, dof, dim)),
+                           u0=np.zeros(n), v0=np.zeros(n), rotary=rotary,
                            material_D=elastic(scene.model.material).D(),
                            lattice=Lattice(bonds=zone.bonds, carried=zone.blocks,
                                            geometry=lat.geometry,
                                            break_strain=break_strain_of(lat, zone),
-                                           weibull=weibull_of(lat)),
+                                           weibull=weibull_of(lat), bending=zone.bending),
                            contact=contact_of(lat), zone=zone)
 

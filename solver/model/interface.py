@@ -17,7 +17,10 @@ probing attributes:
   (:func:`solver.model.continuum.contact_of`), carried as they are;
   ``heat``    the :class:`solver.model.heat.Conduction` of scene key ``heat``;
   ``zone``    the :class:`solver.model.transition.Transition` of
-  ``model.lattice.transition``.
+  ``model.lattice.transition``;
+  ``rotary``  [n_nodes] rotational inertia of the DOFs past the spatial ones
+  of nodes that rotate without shells (particles joined by beam bonds:
+  ``model.lattice.bond: beam``; the other nodes' rotations are fixed).
 
 A network has none of the features: it declares them as class attributes
 (None), so its constructor stays the arrays of its masses and springs.
@@ -36,7 +39,7 @@ if TYPE_CHECKING:
     from solver.model.heat import Conduction
     from solver.model.transition import Transition
 
-FEATURES = ("shells", "lattice", "contact", "heat", "zone")
+FEATURES = ("shells", "lattice", "contact", "heat", "zone", "rotary")
 
 
 @dataclass(frozen=True)
@@ -59,6 +62,7 @@ class Lattice:
     geometry: str = "linear"     # bonds: linear (small strain) or nonlinear (current configuration)
     break_strain: float | None = None   # bonds break beyond this strain (nonlinear), or never
     weibull: tuple | None = None        # (modulus, seed) of the strengths' spread, or None
+    bending: np.ndarray | None = None   # bond: beam, k_b of each of ``bonds`` (particles rotate)
 
 
 @runtime_checkable
@@ -82,6 +86,7 @@ class ModelInterface(Protocol):
     contact: tuple | None
     heat: Conduction | None
     zone: Transition | None
+    rotary: np.ndarray | None
     gravity: np.ndarray | None   # body acceleration [space] on every node's mass, or None
     motions: tuple               # prescribed motions (solver.model.prescribed.Motion), or ()
 

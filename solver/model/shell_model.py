@@ -197,24 +197,25 @@ class Wall:
 
 
 class Padded:
-    """A solid family's K_e on nodes with 6 DOFs: the translations' blocks, zero
-    for the rotations ([e, 3k, 3k] -> [e, 6k, 6k])."""
+    """A family's K_e on nodes with more DOFs: the translations' blocks, zero
+    for the rest ([e, small k, small k] -> [e, big k, big k]; solids on shell
+    nodes 3 -> 6, plane cells on the nodes of rotating particles 2 -> 3)."""
 
-    def __init__(self, Ke, k):
-        self.Ke, self.k = Ke, k
+    def __init__(self, Ke, k, small: int = 3, big: int = 6):
+        self.Ke, self.k, self.small, self.big = Ke, k, small, big
 
     def __len__(self) -> int:
         return len(self.Ke)
 
     def __getitem__(self, idx) -> np.ndarray:
         small = self.Ke[idx]
-        k = self.k
-        out = np.zeros((small.shape[0], k, 6, k, 6))
-        out[:, :, :3, :, :3] = small.reshape(-1, k, 3, k, 3)
-        return out.reshape(-1, 6 * k, 6 * k)
+        k, s, b = self.k, self.small, self.big
+        out = np.zeros((small.shape[0], k, b, k, b))
+        out[:, :, :s, :, :s] = small.reshape(-1, k, s, k, s)
+        return out.reshape(-1, b * k, b * k)
 
     def subset(self, mask) -> "Padded":
-        return Padded(self.Ke.subset(mask), self.k)
+        return Padded(self.Ke.subset(mask), self.k, self.small, self.big)
 
 
 class Tie:

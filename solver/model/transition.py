@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver.errors import SceneError
-from solver.model.embedding import Embedding, find, flat_cells, locate_in_cells
+from solver.model.embedding import (Embedding, find, flat_cells, local_coordinates,
+                                    locate_in_cells)
 from solver.model import calibration, packing
 from solver.model.elements import FAMILIES, volumes
 from solver.model.lattice import cubic, square
@@ -53,6 +54,24 @@ class RankOneBonds:
         return RankOneBonds(self.conn[mask], self.g[mask], self.k[mask], self.length[mask])
 
 
+class CarriedBeams:
+    """Stiffness blocks [n, nd, nd] of beam bonds carried to nodes (T^T K T,
+    the last node a core particle or not) with their rest separations ``d``
+    [n, 2] (from the bond's first end to its second)."""
+
+    def __init__(self, conn, blocks, d):
+        self.conn, self.blocks, self.d = conn, blocks, d
+
+    def __len__(self) -> int:
+        return len(self.conn)
+
+    def __getitem__(self, idx) -> np.ndarray:
+        return self.blocks[idx]
+
+    def subset(self, mask) -> "CarriedBeams":
+        return CarriedBeams(self.conn[mask], self.blocks[mask], self.d[mask])
+
+
 @dataclass(frozen=True)
 class Transition:
     n_mesh: int
@@ -69,6 +88,8 @@ class Transition:
     spacing: float
     packing: str | None = None  # what the random packing is (None: the regular lattice)
     concentration: float = 1.0  # the packing's largest bond strain per uniaxial strain (lattice: 1)
+    bending: np.ndarray | None = None  # k_b of the core bonds (bond: beam), else None
+    radii: np.ndarray | None = None    # [n_core] the core particles' radii (random packing)
 
     @property
     def n_core(self) -> int:
@@ -150,7 +171,7 @@ def build(spec, mesh) -> Transition:
     nodes = np.unique(np.concatenate([band.nodes, region.nodes]))
     lo, hi = pts[nodes].min(axis=0), pts[nodes].max(axis=0)
     sites = (_random if lat.kind == "random" else _square)(spec, pts, band, region, lo, hi)
-    points, mass, bi, bj, bk, band_cell, band_w, kept, note, concentration = sites
+    points, mass, bi, bj, bk, band_cell, band_w, kept, note, concentration, kb, radii = sites
     is_band = kept & (band_cell >= 0)
     is_core = kept & ~is_band
     empty = _empty_cells(pts, band.cells, band_cell[is_band], points[is_band])
@@ -185,6 +206,14 @@ def build(spec, mesh) -> Transition:
     core_i, core_j = is_core[bi], is_core[bj]
     cc = core_i & core_j
     bonds = (model_id[bi[cc]], model_id[bj[cc]], bk[cc])
+    if kb is not None:
+        blocks = _carried_beams(points, bi, bj, bk, kb, is_band, is_core, band_no, model_id,
+                                b_nodes, b_w, _curls(pts, band.cells, band_cell[band_ids],
+                                                     points[band_ids]))
+        node_mass = emb.to_nodes(mass[band_ids], n_mesh)
+        return Transition(n_mesh, points[core_ids], mass[core_ids], bonds, blocks, node_mass,
+                          emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a,
+                          note, concentration, kb[cc], radii[core_ids])
     blocks = []
     bb = is_band[bi] & is_band[bj]
     if bb.any():
@@ -228,7 +257,7 @@ def _square(spec, pts, band, region, lo, hi):
     share = mat.rho * (mat.depth * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
     mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
     kept &= mass > 0                               # a site outside every kept cell: no particle
-    return grid.points, mass, bi, bj, bk, band_cell, band_w, kept, None, 1.0
+    return grid.points, mass, bi, bj, bk, band_cell, band_w, kept, None, 1.0, None, None
 
 
 def _inside(pts, band, region, particles):
@@ -263,13 +292,25 @@ def _random(spec, pts, band, region, lo, hi):
         raise SceneError(f"model.lattice.gap: {gap:g} leaves {int((~bonded).sum())} of "
                          f"{ids.size} particles unbonded (none of their Delaunay neighbours "
                          "within the gap); give a larger gap")
+    beam = lat.bond == "beam"
+    if beam and dim != 2:
+        raise SceneError("model.lattice.bond: beam bonds between rotating particles are 2D; "
+                         "this mesh is 3D")
+    psi = 0.0
     try:
-        kappa, measured = calibration.calibrate(E, mat.nu, mat.kind, spread, gap, lat.seed)
+        kappa, measured = calibration.calibrate(E, mat.nu, mat.kind, spread, gap, lat.seed,
+                                                check=not beam)
+        if beam:
+            kappa, psi, measured = calibration.calibrate_beams(E, mat.nu, mat.kind, spread, gap,
+                                                               lat.seed)
     except calibration.Floppy as e:
         raise SceneError(f"model.lattice.gap: {e}") from None
     except ValueError as e:
-        raise SceneError(f"model.lattice: {e}") from None
+        raise SceneError(f"model.lattice{'.bond' if beam else ''}: {e}") from None
     bk = packing.bond_stiffness(points[ids], radii[ids], i, j, E, mat.depth, kappa)
+    kb = None
+    if beam:
+        kb = psi * bk * np.sum((points[ids][j] - points[ids][i]) ** 2, axis=1) / 12.0
     volume = sum(volumes(FAMILIES[fam], pts[conn]).sum()
                  for group in (band, region) for fam, conn in group.cells.items())
     mass = np.zeros(len(points))
@@ -280,11 +321,72 @@ def _random(spec, pts, band, region, lo, hi):
             f"{2 * i.size / ids.size:.2f} per particle), E calibrated (bond factor {kappa:.4g}) "
             f"on a uniaxial test of {measured.particles} particles, which gives nu {nu:.3f}; its "
             f"most stretched bond carries {measured.concentration:.2f} x the applied strain")
+    if beam:
+        note += (f"; beam bonds (bending k_b = {psi:.4g} k L^2 / 12, calibrated to nu "
+                 f"{mat.nu:g}), particles rotating with inertia 1/2 m r^2")
     if lat.strength == "packing":
         note += (f"; bonds break at {measured.concentration:.3f} x break_strain (strength: "
                  "packing)")
     return (points, mass, ids[i], ids[j], bk, band_cell, band_w, kept, note,
-            measured.concentration)
+            measured.concentration, kb, radii)
+
+
+def _curls(pts, cells: dict, cell, particles) -> np.ndarray:
+    """[n, k, 2]: c with the rotation of the displacement field at each band
+    particle, theta = 1/2 (du_y/dx - du_x/dy) = sum_a c_a . u_a over its cell's
+    nodes a (c_a = 1/2 (-dN_a/dy, dN_a/dx))."""
+    fams, conn = flat_cells(cells)
+    fams, k = np.asarray(fams), conn.shape[1]
+    out = np.zeros((len(particles), k, 2))
+    for fam in set(fams[cell].tolist()):
+        at = np.flatnonzero(fams[cell] == fam)
+        X = pts[conn[cell[at]]][:, :FAMILIES[fam].n_nodes]
+        xi = local_coordinates(fam, X, particles[at])
+        _, dN = FAMILIES[fam].shape(xi)                          # [n, k, 2] dN/dxi
+        J = np.einsum("nkd,nke->nde", X, dN)                      # dx/dxi
+        dNdx = np.einsum("nke,ned->nkd", dN, np.linalg.inv(J))
+        out[at, :X.shape[1]] = 0.5 * np.stack([-dNdx[..., 1], dNdx[..., 0]], axis=-1)
+    return out
+
+
+def _carried_beams(points, bi, bj, bk, kb, is_band, is_core, band_no, model_id, b_nodes, b_w,
+                   curl):
+    """Block sets ("beam", conn, [n, nd, nd]) of the beam bonds with a band end,
+    on the nodes of their cells (3 DOFs each: u_x, u_y and a rotation the
+    nodes do not use) and their core particle: T^T K T, K the bond's stiffness
+    at rest (:func:`solver.model.calibration.beam_blocks`) and T the map from
+    the element's DOFs to the bond ends' (u, theta): a band particle moves
+    with its cell (weights N) and turns with its displacement field's
+    rotation (``curl``).  A band-core bond is oriented from its band end to
+    its core particle, the element's last node (as the central bonds')."""
+    flip = is_core[bi] & is_band[bj]
+    bi, bj = np.where(flip, bj, bi), np.where(flip, bi, bj)
+    d = points[bj] - points[bi]
+    K = calibration.beam_blocks(d, bk, kb)
+    k = b_nodes.shape[1]
+
+    def band_rows(p):                                   # [n, 3, 3k]: (u_x, u_y, theta) of p
+        T = np.zeros((len(p), 3, k, 3))
+        T[:, 0, :, 0] = T[:, 1, :, 1] = b_w[p]
+        T[:, 2, :, :2] = curl[p]
+        return T.reshape(len(p), 3, 3 * k)
+
+    out = []
+    for m in (is_band[bi] & is_band[bj], is_band[bi] & is_core[bj]):
+        if not m.any():
+            continue
+        n = int(m.sum())
+        core = bool(is_core[bj[m][0]])
+        Ti = band_rows(band_no[bi[m]])
+        Tj = np.broadcast_to(np.eye(3), (n, 3, 3)) if core else band_rows(band_no[bj[m]])
+        T = np.zeros((n, 6, Ti.shape[2] + Tj.shape[2]))
+        T[:, :3, :Ti.shape[2]] = Ti
+        T[:, 3:, Ti.shape[2]:] = Tj
+        conn = np.hstack([b_nodes[band_no[bi[m]]],
+                          model_id[bj[m]][:, None] if core else b_nodes[band_no[bj[m]]]])
+        out.append(("beam", conn, CarriedBeams(conn, np.einsum("bri,brs,bsj->bij", T, K[m], T),
+                                               d[m])))
+    return out
 
 
 TILE_TOLERANCE = 1e-6     # a width is a whole number of spacings to this (in spacings)

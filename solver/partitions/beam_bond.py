@@ -1,8 +1,7 @@
 """Beam bonds between rotating particles in 2D: the bond law of the
-bonded-particle model with rotations (issue 25).  Not yet wired into scenes:
-the particles of ``model.lattice`` do not rotate yet (see
-docs/reference/limits.md); this module holds the law, its energy and its
-checks, which the rotating lattice will call.
+bonded-particle model with rotations (``model.lattice.bond: beam``; the
+partitions step it through :mod:`solver.partitions.beam_force` and the
+compiled loop of :mod:`solver.partitions.beam_bond_kernel`).
 
 A bond (i, j) joins two particles with positions x and rotations theta, at
 rest X_j - X_i (length L0, direction angle alpha0).  It is a co-rotational
@@ -77,15 +76,32 @@ class BeamBonds:
         M_j = self.k_off * phi_i + self.k_diag * phi_j
         return L, e1, e2, self.k_n * (L - self.L0), M_i, M_j
 
+    def virial(self, u, theta, bonds, c) -> float:
+        """sum over ``bonds`` of f_c d_c, f = N e1 - V e2 (the force on the
+        first particle, towards the second in tension), d = x_j - x_i."""
+        sub = BeamBonds.__new__(BeamBonds)
+        sub.i, sub.j, sub.rest, sub.L0, sub.alpha0 = (self.i[bonds], self.j[bonds],
+                                                      self.rest[bonds], self.L0[bonds],
+                                                      self.alpha0[bonds])
+        sub.k_n, sub.k_diag, sub.k_off = self.k_n[bonds], self.k_diag[bonds], self.k_off[bonds]
+        d = sub.rest + (u[sub.j] - u[sub.i])
+        L, e1, e2, N, M_i, M_j = sub._loads(u, theta)
+        f = N[:, None] * e1 - ((M_i + M_j) / L)[:, None] * e2
+        return float(np.sum(f[:, c] * d[:, c]))
+
     def resultants(self, u, theta):
         """Each bond's (axial force N, shear force V, end moments M_i, M_j)."""
         L, _, _, N, M_i, M_j = self._loads(u, theta)
         return N, (M_i + M_j) / L, M_i, M_j
 
-    def energy(self, u, theta) -> float:
+    def energies(self, u, theta) -> np.ndarray:
+        """Each bond's strain energy."""
         _, L, _, _, phi_i, phi_j = self.state(u, theta)
         bend = self.k_diag * (phi_i ** 2 + phi_j ** 2) + 2.0 * self.k_off * phi_i * phi_j
-        return float(np.sum(0.5 * self.k_n * (L - self.L0) ** 2 + 0.5 * bend))
+        return 0.5 * self.k_n * (L - self.L0) ** 2 + 0.5 * bend
+
+    def energy(self, u, theta) -> float:
+        return float(np.sum(self.energies(u, theta)))
 
     def forces(self, u, theta, m=None):
         """(forces [m, 2], torques [m]) on the particles at displacements ``u``

@@ -8,8 +8,8 @@ the particles' displacements and rotations q = (u_x, u_y, theta) [n, 3]
 atan2, or atan's series below 0.01 rad), and adds the forces and torques to ``out`` [rows, 3] (rows >=
 ``rows`` are another piece's particles).  Bonds come sorted by their first
 particle, so a particle's sum over its run stays in registers (as in
-:mod:`solver.partitions.bond_kernel`).  Not yet called by a partition: the
-particles of scenes do not rotate yet; tests/test_beam_bond.py checks it
+:mod:`solver.partitions.bond_kernel`).  Called by
+:mod:`solver.partitions.beam_force`; tests/test_beam_bond.py checks it
 against the numpy law and benchmarks/bench_beam_bond.py measures it.
 """
 from __future__ import annotations

@@ -249,6 +249,15 @@ class BondForce(Force):
         as dX + (u_j - u_i): no round-off of X + u (see bond_kernel)."""
         return self.dX[bonds] + (u[self.j[bonds]] - u[self.i[bonds]])
 
+    def virial(self, u, bonds, c) -> float:
+        """sum f_c d_c over ``bonds`` at displacements ``u`` (of
+        :meth:`displacements`): f = k (L - L0) d / L, live bonds only."""
+        d = self.separations(u, bonds)
+        L = np.linalg.norm(d, axis=1)
+        pull = np.where(self.alive[bonds], self.k[bonds] * (L - self.L0[bonds]) /
+                        np.where(L > 0, L, 1.0), 0.0)
+        return float(np.sum(pull * d[:, c] ** 2))
+
     def _bonds(self, u_vec):
         u = self.displacements(u_vec)
         d = self.separations(u)

@@ -16,6 +16,7 @@ from solver.laws import BOND_GEOMETRIES
 from solver.partitions.force import LinearForce
 from solver.partitions.partition import Partition
 from solver.model.continuum import BondStiffness
+from solver.partitions.beam_force import BeamBondForce
 from solver.partitions.bonds import BondForce
 
 
@@ -56,10 +57,16 @@ class DemPartition(Partition):
         conn = np.concatenate([c for c, _ in lattice]) if lattice else np.zeros((0, 2), np.int64)
         stiff = lattice[0][1] if lattice else None
         if len(lattice) > 1:
-            stiff = BondStiffness(stiff.points, conn, np.concatenate([k.k for _, k in lattice]))
+            stiff = type(stiff).joined([k for _, k in lattice], conn)
         other = self.operator(others, scale=-1.0) if others else None
         contact = model.contact
         lat = model.lattice
+        if lat.bending is not None:
+            force = BeamBondForce(self, (conn, stiff), other, others, B)
+            self.built.append(f"{len(force.k)} beam bonds between rotating particles (axial, "
+                              "shear, bending; current configuration){}".format(
+                                  f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""))
+            return force
         force = BondForce(self, (conn, stiff), other, others, B, lat.break_strain,
                           contact, model.heat, model.mass, lat.weibull)
         strain = (f", breaking beyond strain {lat.break_strain:g}"

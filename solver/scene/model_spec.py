@@ -320,6 +320,12 @@ class LatticeSpec:
     radius_spread: float | None = key(
         "kind random: radii uniform in spacing/2 x (1 -+ radius_spread), below 1; default 0",
         None, nonnegative=True)
+    bond: Literal["central", "beam"] = key(
+        "central: bonds carry a normal force only (the packing's own nu); beam (2D, kind "
+        "random, geometry nonlinear): particles rotate (one more DOF each, inertia 1/2 m r^2) "
+        "and bonds are co-rotational beams carrying normal and shear force and bending "
+        "moments, calibrated to E and nu (nu from 0 to the central value, docs/bonds.md)",
+        "central")
 
     @property
     def bond_gap(self) -> float:
@@ -351,6 +357,14 @@ class LatticeSpec:
         if self.kind == "random" and not self.transition:
             fail(f"{path}.kind", "random packings are laid in a transition band and its region "
                  "(give transition); without one every particle is a mesh node")
+        if self.bond == "beam":
+            if self.kind != "random" or not BOND_GEOMETRIES[self.geometry].current:
+                fail(f"{path}.bond", "beam bonds join the particles of a random packing from "
+                     "their current configuration: give kind: random and geometry: nonlinear")
+            for name in ("contact", "break_strain"):
+                if getattr(self, name) is not None:
+                    fail(f"{path}.{name}", "is not yet available with bond: beam (rotating "
+                         "particles are elastic: docs/reference/limits.md)")
         if self.break_strain is not None and not BOND_GEOMETRIES[self.geometry].breakable:
             fail(f"{path}.break_strain", "needs geometry: nonlinear (a small-strain bond does not "
                  "know its current length)")
