@@ -397,7 +397,8 @@ def _with_zone(scene, mesh, zone, cells, mass):
     dof, rotary = dim, None
     if zone.bending is not None:           # rotating particles: (u_x, u_y, theta) on every node
         dof = dim + 1
-        cells = [(fam, conn, shell_model.Padded(Ke, fam.n_nodes, dim, dof)) for fam, conn, Ke in cells]
+        cells = [(fam, conn, shell_model.Padded(Ke, fam.n_nodes, dim, dof))
+                 for fam, conn, Ke in cells]
         rotary = np.ones(n_nodes)            # (mesh nodes: never used, their rotation is fixed)
         rotary[zone.n_mesh:] = 0.5 * zone.mass * zone.radii ** 2
     fixed = fixed_dofs(scene, mesh, n_nodes, dof)

@@ -200,20 +200,28 @@ def build(spec, mesh) -> Transition:
     emb = Embedding(band_cell[band_ids], b_nodes, b_w, np.zeros((band_ids.size, dim)))
 
     # bonds: core-core stay bonds; bonds with a band end become elements on nodes
+    cc = is_core[bi] & is_core[bj]
+    bonds = (model_id[bi[cc]], model_id[bj[cc]], bk[cc])
+    ends = (bi, bj, bk, is_band, is_core, band_no, model_id, b_nodes, b_w)
+    if kb is None:
+        blocks = _carried_bonds(points, *ends)
+    else:
+        blocks = _carried_beams(points, *ends, kb,
+                                _curls(pts, band.cells, band_cell[band_ids], points[band_ids]))
+    node_mass = emb.to_nodes(mass[band_ids], n_mesh)
+    return Transition(n_mesh, points[core_ids], mass[core_ids], bonds, blocks, node_mass,
+                      emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a, note,
+                      concentration, None if kb is None else kb[cc],
+                      None if radii is None else radii[core_ids])
+
+
+def _carried_bonds(points, bi, bj, bk, is_band, is_core, band_no, model_id, b_nodes, b_w):
+    """Block sets ("bond", conn, RankOneBonds) of the central bonds with a band
+    end, on the nodes of their cells and their core particle (the last node):
+    k g g^T, g the bond's direction carried through the weights N."""
     unit = points[bj] - points[bi]
     length = np.linalg.norm(unit, axis=1)
     unit /= length[:, None]
-    core_i, core_j = is_core[bi], is_core[bj]
-    cc = core_i & core_j
-    bonds = (model_id[bi[cc]], model_id[bj[cc]], bk[cc])
-    if kb is not None:
-        blocks = _carried_beams(points, bi, bj, bk, kb, is_band, is_core, band_no, model_id,
-                                b_nodes, b_w, _curls(pts, band.cells, band_cell[band_ids],
-                                                     points[band_ids]))
-        node_mass = emb.to_nodes(mass[band_ids], n_mesh)
-        return Transition(n_mesh, points[core_ids], mass[core_ids], bonds, blocks, node_mass,
-                          emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a,
-                          note, concentration, kb[cc], radii[core_ids])
     blocks = []
     bb = is_band[bi] & is_band[bj]
     if bb.any():
@@ -230,10 +238,7 @@ def build(spec, mesh) -> Transition:
                                axis=1).reshape(m.sum(), -1)
             conn = np.hstack([b_nodes[p], model_id[core_end[m]][:, None]])
             blocks.append(("bond", conn, RankOneBonds(conn, g, bk[m], length[m])))
-    node_mass = emb.to_nodes(mass[band_ids], n_mesh)
-    return Transition(n_mesh, points[core_ids], mass[core_ids], bonds, blocks, node_mass,
-                      emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a, note,
-                      concentration)
+    return blocks
 
 
 def _square(spec, pts, band, region, lo, hi):
@@ -349,9 +354,9 @@ def _curls(pts, cells: dict, cell, particles) -> np.ndarray:
     return out
 
 
-def _carried_beams(points, bi, bj, bk, kb, is_band, is_core, band_no, model_id, b_nodes, b_w,
+def _carried_beams(points, bi, bj, bk, is_band, is_core, band_no, model_id, b_nodes, b_w, kb,
                    curl):
-    """Block sets ("beam", conn, [n, nd, nd]) of the beam bonds with a band end,
+    """Block sets ("beam", conn, CarriedBeams) of the beam bonds with a band end,
     on the nodes of their cells (3 DOFs each: u_x, u_y and a rotation the
     nodes do not use) and their core particle: T^T K T, K the bond's stiffness
     at rest (:func:`solver.model.calibration.beam_blocks`) and T the map from

@@ -76,14 +76,17 @@ class BeamBonds:
         M_j = self.k_off * phi_i + self.k_diag * phi_j
         return L, e1, e2, self.k_n * (L - self.L0), M_i, M_j
 
+    def subset(self, bonds) -> "BeamBonds":
+        """The bonds ``bonds`` (an index or mask) alone, on the same particles."""
+        sub = BeamBonds.__new__(BeamBonds)
+        for name in ("i", "j", "rest", "L0", "alpha0", "k_n", "k_diag", "k_off"):
+            setattr(sub, name, getattr(self, name)[bonds])
+        return sub
+
     def virial(self, u, theta, bonds, c) -> float:
         """sum over ``bonds`` of f_c d_c, f = N e1 - V e2 (the force on the
         first particle, towards the second in tension), d = x_j - x_i."""
-        sub = BeamBonds.__new__(BeamBonds)
-        sub.i, sub.j, sub.rest, sub.L0, sub.alpha0 = (self.i[bonds], self.j[bonds],
-                                                      self.rest[bonds], self.L0[bonds],
-                                                      self.alpha0[bonds])
-        sub.k_n, sub.k_diag, sub.k_off = self.k_n[bonds], self.k_diag[bonds], self.k_off[bonds]
+        sub = self.subset(bonds)
         d = sub.rest + (u[sub.j] - u[sub.i])
         L, e1, e2, N, M_i, M_j = sub._loads(u, theta)
         f = N[:, None] * e1 - ((M_i + M_j) / L)[:, None] * e2
