@@ -33,8 +33,6 @@ and results/plate_crack_random.png (about 4 minutes).
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -44,6 +42,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
+from launch import solve  # noqa: E402
 from tables import write  # noqa: E402
 
 SCENE = ROOT / "configs" / "plate_fracture.yaml"
@@ -58,16 +57,7 @@ WIDTH = 0.1
 def run(tmp: Path, every: int, ranks: int = 1, scene: Path = SCENE) -> Path:
     out = tmp / f"{scene.stem}_e{every}_n{ranks}.h5"
     end = int((START + HEATING * every * DT_SYS / STEP) / DT_SYS + 1e-9) * DT_SYS  # whole steps
-    cmd = [sys.executable, "-m", "solver", str(scene), "--set", f"heat.every={every}",
-           "--set", f"time.end={end:.12g}", "--set", f"output.file={out}",
-           "--set", "output.progress=0"]
-    if ranks > 1:
-        mpiexec = os.environ.get("MTS_MPIEXEC", "mpiexec")
-        cmd = [mpiexec, "-n", str(ranks), *cmd]
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1"}
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    if proc.returncode:
-        raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
+    solve(scene, [f"heat.every={every}", f"time.end={end:.12g}", f"output.file={out}"], ranks)
     return out
 
 

@@ -29,8 +29,6 @@ cracks).
 """
 from __future__ import annotations
 
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -41,6 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT))
+from launch import solve  # noqa: E402
 from tables import write  # noqa: E402
 
 from solver.model import calibration  # noqa: E402
@@ -54,14 +53,7 @@ WIDTH = 0.024                                # the block with its band [m]
 
 def run(tmp: Path, scene: Path, ranks: int) -> Path:
     out = tmp / f"{scene.stem}_n{ranks}.h5"
-    cmd = [sys.executable, "-m", "solver", str(scene), "--set", f"output.file={out}",
-           "--set", "output.progress=0"]
-    if ranks > 1:
-        cmd = [os.environ.get("MTS_MPIEXEC", "mpiexec"), "-n", str(ranks), *cmd]
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1"}
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    if proc.returncode:
-        raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
+    solve(scene, [f"output.file={out}"], ranks)
     return out
 
 
