@@ -5,7 +5,7 @@
 
 The case: spheres of diameter 1 and mass 1 in a random packing with random
 velocities (seeded): a Poisson-disc packing of a cube of side n (Bridson's
-sampling, no two centres closer than 0.9, so neighbours 0.9 to 1 apart
+sampling, solver/model/packing.py: no two centres closer than 0.9, so neighbours 0.9 to 1 apart
 touch with random overlaps; n = 50: 103k spheres), or (``--packing
 jittered``) an n^3 simple-cubic grid of spacing 0.95 with every sphere moved
 by a uniform jitter of +-0.04.  Hooke contacts with shear history and Coulomb sliding,
@@ -40,10 +40,10 @@ import tempfile
 import time
 from pathlib import Path
 
-import numba
 import numpy as np
 
 from solver.laws import CONTACT_LAWS, ContactSettings
+from solver.model.packing import poisson_disc
 from solver.partitions.contact import Contact
 from solver.petscutil import init, vec_on
 
@@ -56,82 +56,12 @@ def packing(n, seed=1, kind="poisson"):
     0.9, about 0.55 n^3 spheres); ``jittered``, the n^3 jittered grid."""
     rng = np.random.default_rng(seed)
     if kind == "poisson":
-        X = poisson_disc(float(n), 0.9, seed)
+        X = poisson_disc(np.zeros(3), np.full(3, float(n)), 0.45, 0.0, seed)[0]
     else:
         g = np.arange(n) * 0.95
         X = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
         X += rng.uniform(-0.04, 0.04, X.shape)
     return X, rng.normal(0.0, 0.02, X.shape)
-
-
-@numba.njit(cache=True)
-def _bridson(side, dmin, seed, attempts):
-    """Bridson's Poisson-disc sampling of the cube [0, side]^3: points no two
-    closer than ``dmin``, each new one in the shell dmin..2 dmin around an
-    active one, ``attempts`` tries before it retires."""
-    np.random.seed(seed)
-    cell = dmin / np.sqrt(3.0)
-    m = int(np.ceil(side / cell))
-    grid = -np.ones((m, m, m), np.int64)
-    cap = int(1.2 * side ** 3 / dmin ** 3) + 16
-    pts = np.empty((cap, 3))
-    active = np.empty(cap, np.int64)
-    pts[0] = np.random.uniform(0.0, side, 3)
-    grid[int(pts[0, 0] / cell), int(pts[0, 1] / cell), int(pts[0, 2] / cell)] = 0
-    n, n_active = 1, 1
-    active[0] = 0
-    q = np.empty(3)
-    while n_active:
-        slot = np.random.randint(n_active)
-        p = active[slot]
-        placed = False
-        for _ in range(attempts):
-            r = dmin * (1.0 + np.random.random())
-            norm = 0.0
-            for c in range(3):
-                q[c] = np.random.normal()
-                norm += q[c] * q[c]
-            norm = np.sqrt(norm)
-            inside = True
-            for c in range(3):
-                q[c] = pts[p, c] + r * q[c] / norm
-                if q[c] < 0.0 or q[c] >= side:
-                    inside = False
-            if not inside:
-                continue
-            gx, gy, gz = int(q[0] / cell), int(q[1] / cell), int(q[2] / cell)
-            free = True
-            for x in range(max(gx - 2, 0), min(gx + 3, m)):
-                for y in range(max(gy - 2, 0), min(gy + 3, m)):
-                    for z in range(max(gz - 2, 0), min(gz + 3, m)):
-                        o = grid[x, y, z]
-                        if o >= 0:
-                            d2 = ((pts[o, 0] - q[0]) ** 2 + (pts[o, 1] - q[1]) ** 2 +
-                                  (pts[o, 2] - q[2]) ** 2)
-                            if d2 < dmin * dmin:
-                                free = False
-            if free:
-                pts[n] = q
-                grid[gx, gy, gz] = n
-                active[n_active] = n
-                n += 1
-                n_active += 1
-                placed = True
-                break
-        if not placed:
-            n_active -= 1
-            active[slot] = active[n_active]
-    return pts[:n].copy()
-
-
-def poisson_disc(side, dmin, seed, attempts=30):
-    """Points of a Poisson-disc packing of the cube [0, side]^3 (seeded), in
-    grid-cell order (neighbours near in memory, as a code that sorts its
-    particles spatially keeps them)."""
-    pts = _bridson(side, dmin, seed, attempts)
-    cell = np.floor(pts / 2.0).astype(np.int64)
-    m = int(cell.max()) + 1
-    return pts[np.argsort((cell[:, 0] * m + cell[:, 1]) * m + cell[:, 2], kind="stable")]
 
 
 def step_size():
