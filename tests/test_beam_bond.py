@@ -191,11 +191,59 @@ def test_the_compiled_loop_is_the_numpy_law(size):
     u = rng.normal(0.0, size, X.shape)
     theta = rng.normal(0.0, 8 * size, len(X))
     f, t = bonds.forces(u, theta)
-    out = beam_forces(bonds, np.column_stack([u, theta]), np.zeros((len(X), 3)))
+    out = np.zeros((len(X), 3))
+    assert beam_forces(bonds, np.column_stack([u, theta]), out) == 0
     scale = max(np.abs(f).max(), np.abs(t).max())
     assert np.abs(out[:, :2] - f).max() < 1e-12 * scale
     assert np.abs(out[:, 2] - t).max() < 1e-12 * scale
-    part = beam_forces(bonds, np.column_stack([u, theta]), np.full((len(X), 3), 7.0), rows=30,
-                       accumulate=True)
+    part = np.full((len(X), 3), 7.0)
+    beam_forces(bonds, np.column_stack([u, theta]), part, rows=30, accumulate=True)
     assert np.array_equal(part[30:], np.full((10, 3), 7.0))
     assert np.abs(part[:30] - 7.0 - out[:30]).max() < 1e-12 * scale
+
+
+def one_bond(tension, shear, friction=0.0):
+    """A bond of length 1 along x (k_n 100, k_b 1) with strengths."""
+    bonds = BeamBonds([0], [1], [[1.0, 0.0]], 100.0, 1.0)
+    bonds.breakable(tension, shear, friction)
+    return bonds
+
+
+def breaks(bonds, u, theta):
+    """(how many broke, their mode, the forces) of one evaluation of the loop."""
+    from solver.partitions.beam_bond_kernel import beam_forces
+    snapped, mode = np.zeros(1, np.int64), np.zeros(1, np.int64)
+    out = np.zeros((2, 3))
+    n = beam_forces(bonds, np.column_stack([u, theta]), out, snapped=snapped, mode=mode)
+    return n, int(mode[0]) if n else 0, out
+
+
+def test_a_beam_breaks_in_tension_at_its_outer_fibre_and_in_shear_by_mohr_coulomb():
+    """Strengths of a beam (Potyondy & Cundall's parallel bond): stretched to
+    its tensile strain it breaks in tension (mode 1) and then pulls nothing;
+    bent with its chord fixed (both ends turned by phi, end moments 6 k_b phi)
+    it breaks in tension once the outer fibre's strain 6 phi sqrt(3 k_b / k_n)
+    / L0 reaches the limit, with no stretch at all; sheared (an end moved
+    across, shear |V| / (k_n L0) = 12 k_b beta / (k_n L0)) with a high
+    tensile strength it breaks in shear (mode 2), and compression across it
+    raises that strength by friction x its compressive strain."""
+    eps = 1e-2
+    for s, broke in ((0.999, 0), (1.001, 1)):
+        n, mode, out = breaks(one_bond(eps, 1.0), np.array([[0, 0], [s * eps, 0]]), np.zeros(2))
+        assert (n, mode) == (broke, broke)
+        assert (np.abs(out).max() == 0.0) == bool(broke)
+    phi = eps / (6.0 * np.sqrt(0.03))                 # outer fibre at the limit
+    for s, broke in ((0.999, 0), (1.001, 1)):
+        assert breaks(one_bond(eps, 1.0), np.zeros((2, 2)), np.full(2, s * phi))[:2] == \
+            (broke, broke)
+    beta = 5e-3 / 0.12                                # |V| / (k_n L0) = 0.12 beta at the limit
+    for s, broke in ((0.999, 0), (1.001, 2)):
+        u = np.array([[0.0, 0.0], [0.0, np.tan(s * beta)]])
+        n, mode, _ = breaks(one_bond(1.0, 5e-3), u, np.zeros(2))
+        assert (n, mode) == (int(broke > 0), broke)
+    u = np.array([[0.0, 0.0], [-0.02, np.tan(1.2 * beta) * 0.98]])   # 2 % shorter, sheared
+    assert breaks(one_bond(1.0, 5e-3), u, np.zeros(2))[0] == 1
+    assert breaks(one_bond(1.0, 5e-3, friction=0.5), u, np.zeros(2))[0] == 0
+    fibre, slip, t_lim, s_lim = one_bond(1.0, 5e-3, 0.5).failure(u, np.zeros(2))
+    assert slip[0] > 5e-3 and s_lim[0] == pytest.approx(5e-3 + 0.5 * (1 - np.hypot(0.98, u[1, 1])),
+                                                        rel=1e-9)

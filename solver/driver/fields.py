@@ -218,7 +218,8 @@ class FieldWriter(Observer):
 def write_cracks(output_file: str, broken: np.ndarray, dim: int) -> list[str]:
     """The broken bonds as a point cloud for ParaView, ``<output stem>_cracks.xdmf``:
     one vertex per bond at its midpoint when it broke, with point data time,
-    strain, critical strain and temperature (NaN without heat)."""
+    strain, critical strain and temperature (NaN without heat); beams also
+    their mode (1 tension, 2 shear) and the energy they held."""
     import meshio  # lazy: meshio loads only where fields are written
     xdmf = Path(output_file).resolve().with_suffix("")
     xdmf = Path(f"{xdmf}_cracks.xdmf")
@@ -227,6 +228,8 @@ def write_cracks(output_file: str, broken: np.ndarray, dim: int) -> list[str]:
     data = {name: broken[:, col] for name, col in
             (("time", 0), ("strain", 1 + dim), ("critical_strain", 2 + dim),
              ("temperature", 3 + dim))}
+    if broken.shape[1] == 8 + dim:           # beams: the mode (1 tension, 2 shear) and energy
+        data.update(mode=broken[:, 4 + dim], energy=broken[:, 5 + dim])
     with contextlib.chdir(xdmf.parent):
         meshio.write(xdmf.name, meshio.Mesh(pts, [("vertex", np.arange(len(pts))[:, None])],
                                             point_data=data))

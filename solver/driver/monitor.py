@@ -106,9 +106,10 @@ class Probes(Observer):
 
 class EnergyGuard(Observer):
     def __init__(self, parts, comm, dt_system: float, every: int, bound: float,
-                 max_displacement: float | None = None):
+                 max_displacement: float | None = None, space: int | None = None):
         self.parts = parts
         self.max_displacement = max_displacement
+        self.space = space              # the translations among a node's DOFs (None: all)
         self.comm = comm
         self.dt = dt_system
         self.every = every
@@ -161,13 +162,14 @@ class EnergyGuard(Observer):
         return None
 
     def _lost(self) -> str | None:
-        """The farthest-moved owned node if beyond max_displacement (collective)."""
+        """The farthest-moved owned node if beyond max_displacement (collective):
+        its translation, not its rotations (shells, rotating particles)."""
         far = (0.0, -1, "", "")
         for part in self.parts:
             n = part.n_own
             if not n or part.dof is None:
                 continue
-            dist = np.linalg.norm(part.U[:n].reshape(-1, part.dof), axis=1)
+            dist = np.linalg.norm(part.U[:n].reshape(-1, part.dof)[:, :self.space], axis=1)
             i = int(np.argmax(dist))
             if dist[i] > far[0]:
                 far = (float(dist[i]), int(part.layout.owned[i]), part.name, part.method)

@@ -15,7 +15,9 @@ Layout::
                     reference_displacement,
                     reference_stress (bar_wave)]
     /broken_bonds   [n, 6 + dim]: t, midpoint, strain, critical strain, temperature (NaN
-                    without heat), node i, node j (breakable bonds)
+                    without heat), node i, node j (breakable bonds); beams
+                    (model.lattice.bond: beam) [n, 8 + dim]: the same with mode (1
+                    tension, 2 shear) and the energy the bond held before node i
                        attrs: node, component, partition [, max_rel_error,
                        rms_rel_error]
     /energy/t, kinetic, strain, external_work, total

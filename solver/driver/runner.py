@@ -109,7 +109,8 @@ def run(scene, comm=None, log=print, scene_text: str = "", restart: str | None =
             probes.stress.heating = heating
     every = energy_every(scene)
     guard = EnergyGuard(parts, comm, Dt, every, scene.guard.energy_bound,
-                        scene.guard.max_displacement or body_size(mdl, comm))
+                        scene.guard.max_displacement or body_size(mdl, comm),
+                        mdl.points.shape[1] if mdl.points is not None else None)
     start = 0
     if saved:
         start = saved["step"]

@@ -66,7 +66,9 @@ NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "
               (("model", "lattice", "contact", "tangential_stiffness"), 2.0 / 7.0),
               (("model", "lattice", "gap"), None), (("model", "lattice", "radius_spread"), None),
               (("model", "lattice", "strength"), "bond"),
-              (("model", "lattice", "bond"), "central"))
+              (("model", "lattice", "bond"), "central"),
+              (("model", "lattice", "shear_ratio"), None),
+              (("model", "lattice", "friction_angle"), None))
 
 
 def _drop_unset(section, path, unset):

@@ -19,12 +19,15 @@ of the spacing):
   sigma = (1/V) sum f (x) L of the bonds whose midpoint is inside it;
 - E = sigma_xx / eps_xx, nu = -eps_yy / eps_xx (3D: the mean of y and z);
 - the strain concentration: the largest bond strain in the window over
-  eps_xx.  A square lattice's bonds along the load carry the applied strain
+  eps_xx (beams: the strain of the bond's most stretched fibre, axial plus
+  bending sqrt(psi)/2 max|4 phi_i + 2 phi_j|, the strain their breakage
+  tests).  A square lattice's bonds along the load carry the applied strain
   (1); a random packing's most stretched bond carries more, so under
   uniaxial tension its first bond breaks at break_strain / concentration;
-- and ``lateral``: minus the most compressed bond's strain over eps_xx,
-  which (the test being linear) is the most stretched bond's strain per unit
-  uniaxial compression (an affine network's would be nu).
+- and ``lateral``: minus the most compressed bond's strain over eps_xx
+  (beams: the largest bending minus axial strain), which (the test being
+  linear) is the most stretched bond's (fibre's) strain per unit uniaxial
+  compression (an affine network's would be nu).
 
 The same test calibrates 2D beam bonds between rotating particles
 (:func:`calibrate_beams`, ``model.lattice.bond: beam``): their transverse stiffness
@@ -162,10 +165,10 @@ def measure(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0) 
     value = np.concatenate([np.asarray(v, float) for v in value])
     u = _solve(rows, cols, vals, n, fixed, value)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return _measured(x, i, j, blocks, dofs, u, side)
+        return _measured(x, i, j, blocks, dofs, u, side, shear)
 
 
-def _measured(x, i, j, blocks, dofs, u, side):
+def _measured(x, i, j, blocks, dofs, u, side, shear=0.0):
     """E, nu and the strain concentration of the solved sample (see the module)."""
     dim = x.shape[1]
     nd = blocks.shape[1] // 2
@@ -181,12 +184,20 @@ def _measured(x, i, j, blocks, dofs, u, side):
     f_j = np.einsum("brs,bs->br", blocks[inside], u[dofs[inside]])[:, nd:nd + dim]
     volume = (side - 2 * WINDOW) ** dim
     sxx = np.sum(f_j[:, 0] * d[:, 0]) / volume
-    stretch = np.einsum("ba,ba->b", ut[j[inside]] - ut[i[inside]], d) / L
+    du = ut[j[inside]] - ut[i[inside]]
+    axial = np.einsum("ba,ba->b", du, d) / L ** 2
+    bend = np.zeros_like(axial)
+    if shear:                    # beams: the outer fibre's bending strain (BeamBonds.failure)
+        theta = u.reshape(-1, nd)[:, dim]
+        beta = (d[:, 0] * du[:, 1] - d[:, 1] * du[:, 0]) / L ** 2
+        phi_i, phi_j = theta[i[inside]] - beta, theta[j[inside]] - beta
+        bend = 0.5 * np.sqrt(shear) * np.maximum(np.abs(4 * phi_i + 2 * phi_j),
+                                                 np.abs(2 * phi_i + 4 * phi_j))
     exx = grad[0, 0]
     lateral = np.mean([grad[c, c] for c in range(1, dim)])
     return Measured(sxx / exx, -lateral / exx, int(x.shape[0]), int(i.size),
-                    2.0 * i.size / x.shape[0], float((stretch / L).max() / exx),
-                    float(-(stretch / L).min() / exx))
+                    2.0 * i.size / x.shape[0], float((axial + bend).max() / exx),
+                    float((bend - axial).max() / exx))
 
 
 def calibrate(E: float, nu: float, kind: str, spread: float, gap: float,

@@ -366,6 +366,14 @@ def weibull_of(lat):
     return None if lat.weibull_modulus is None else (lat.weibull_modulus, lat.seed)
 
 
+def shear_of(lat):
+    """(shear_ratio, tan friction_angle) of breakable beam bonds, or None."""
+    if lat.bond != "beam" or lat.break_strain is None:
+        return None
+    ratio = 1.0 if lat.shear_ratio is None else lat.shear_ratio
+    return ratio, float(np.tan(np.radians(lat.friction_angle or 0.0)))
+
+
 def contact_of(lat):
     """The :class:`solver.laws.ContactSettings` of ``model.lattice.contact``
     (its law object built from the registry), defaults filled, or None."""
@@ -413,6 +421,7 @@ def _with_zone(scene, mesh, zone, cells, mass):
                            lattice=Lattice(bonds=zone.bonds, carried=zone.blocks,
                                            geometry=lat.geometry,
                                            break_strain=break_strain_of(lat, zone),
-                                           weibull=weibull_of(lat), bending=zone.bending),
+                                           weibull=weibull_of(lat), bending=zone.bending,
+                                           shear=shear_of(lat)),
                            contact=contact_of(lat), zone=zone)
 

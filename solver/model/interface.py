@@ -63,6 +63,7 @@ class Lattice:
     break_strain: float | None = None   # bonds break beyond this strain (nonlinear), or never
     weibull: tuple | None = None        # (modulus, seed) of the strengths' spread, or None
     bending: np.ndarray | None = None   # bond: beam, k_b of each of ``bonds`` (particles rotate)
+    shear: tuple | None = None          # breakable beams: (shear_ratio, tan friction angle)
 
 
 @runtime_checkable

@@ -58,6 +58,37 @@ class BeamBonds:
         Phi = np.broadcast_to(np.asarray(phi, float), (n,))
         self.k_diag = k_b * (4.0 + Phi) / (1.0 + Phi)          # K_b's entries
         self.k_off = k_b * (2.0 - Phi) / (1.0 + Phi)
+        # breakage (:meth:`breakable`): unbreakable until given strengths
+        self.alive = np.ones(n, bool)
+        self.tension = np.full(n, np.inf)      # critical strain of the most stretched fibre
+        self.shear = np.full(n, np.inf)        # critical |V| / (k_n L0) (shear stress / E_b)
+        self.friction = 0.0                    # tan of the Mohr-Coulomb friction angle
+        # the outer fibre's bending strain per unit end moment, c / (E_b I): a
+        # rectangular section of the beam's A and I has c = sqrt(3 I / A), and
+        # E_b I = k_b L0, E_b A = k_n L0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.bend = np.where(k_b > 0, np.sqrt(3.0 * k_b / self.k_n) / (k_b * self.L0), 0.0)
+
+    def breakable(self, tension, shear, friction: float = 0.0):
+        """Give the bonds strengths (Potyondy & Cundall's parallel bond, in
+        strains of the bond's material E_b): a bond breaks in tension when
+        its most stretched fibre's strain, (L - L0)/L0 + max(|M_i|, |M_j|)
+        c / (E_b I), exceeds ``tension``; in shear when |V| / (E_b A)
+        exceeds ``shear`` + ``friction`` x its axial compression strain
+        (Mohr-Coulomb)."""
+        n = self.i.size
+        self.tension = np.array(np.broadcast_to(np.asarray(tension, float), (n,)))
+        self.shear = np.array(np.broadcast_to(np.asarray(shear, float), (n,)))
+        self.friction = float(friction)
+
+    def failure(self, u, theta):
+        """(tension strain, shear strain, their limits) of every bond (see
+        :meth:`breakable`): it breaks where a strain exceeds its limit."""
+        L, _, _, N, M_i, M_j = self._loads(u, theta)
+        axial = (L - self.L0) / self.L0
+        fibre = axial + np.maximum(np.abs(M_i), np.abs(M_j)) * self.bend
+        slip = np.abs(M_i + M_j) / L / (self.k_n * self.L0)
+        return fibre, slip, self.tension, self.shear + self.friction * np.maximum(-axial, 0.0)
 
     def state(self, u, theta):
         """(d, L, e1, e2, phi_i, phi_j) at displacements ``u`` [m, 2] and
@@ -79,8 +110,10 @@ class BeamBonds:
     def subset(self, bonds) -> "BeamBonds":
         """The bonds ``bonds`` (an index or mask) alone, on the same particles."""
         sub = BeamBonds.__new__(BeamBonds)
-        for name in ("i", "j", "rest", "L0", "alpha0", "k_n", "k_diag", "k_off"):
+        for name in ("i", "j", "rest", "L0", "alpha0", "k_n", "k_diag", "k_off", "alive",
+                     "tension", "shear", "bend"):
             setattr(sub, name, getattr(self, name)[bonds])
+        sub.friction = self.friction
         return sub
 
     def virial(self, u, theta, bonds, c) -> float:
@@ -90,7 +123,7 @@ class BeamBonds:
         d = sub.rest + (u[sub.j] - u[sub.i])
         L, e1, e2, N, M_i, M_j = sub._loads(u, theta)
         f = N[:, None] * e1 - ((M_i + M_j) / L)[:, None] * e2
-        return float(np.sum(f[:, c] * d[:, c]))
+        return float(np.sum(np.where(sub.alive, f[:, c] * d[:, c], 0.0)))
 
     def resultants(self, u, theta):
         """Each bond's (axial force N, shear force V, end moments M_i, M_j)."""
@@ -104,12 +137,15 @@ class BeamBonds:
         return 0.5 * self.k_n * (L - self.L0) ** 2 + 0.5 * bend
 
     def energy(self, u, theta) -> float:
-        return float(np.sum(self.energies(u, theta)))
+        """The live bonds' strain energy."""
+        return float(np.sum(self.energies(u, theta)[self.alive]))
 
     def forces(self, u, theta, m=None):
-        """(forces [m, 2], torques [m]) on the particles at displacements ``u``
-        and rotations ``theta`` (``m`` particles; default: as many as u)."""
+        """(forces [m, 2], torques [m]) of the live bonds on the particles at
+        displacements ``u`` and rotations ``theta`` (``m`` particles; default:
+        as many as u).  No bond breaks here: the compiled loop breaks them."""
         L, e1, e2, N, M_i, M_j = self._loads(u, theta)
+        N, M_i, M_j = (np.where(self.alive, x, 0.0) for x in (N, M_i, M_j))
         f_j = -N[:, None] * e1 + ((M_i + M_j) / L)[:, None] * e2
         m = len(u) if m is None else m
         force = np.zeros((m, 2))

@@ -26,8 +26,9 @@ def _wrap(a):
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _loop(dX, q, i, j, L0, k_n, k_diag, k_off, out, rows):
-    cur = -1
+def _loop(dX, q, i, j, L0, k_n, k_diag, k_off, alive, tension, shear, bend, friction, out,
+          rows, snapped, mode):
+    n_snap, cur = 0, -1
     fx = fy = m = 0.0
     for b in range(i.size):
         p = i[b]
@@ -37,6 +38,8 @@ def _loop(dX, q, i, j, L0, k_n, k_diag, k_off, out, rows):
                 out[cur, 1] += fy
                 out[cur, 2] += m
             cur, fx, fy, m = p, 0.0, 0.0, 0.0
+        if not alive[b]:
+            continue
         r = j[b]
         dx = dX[b, 0] + (q[r, 0] - q[p, 0])
         dy = dX[b, 1] + (q[r, 1] - q[p, 1])
@@ -61,6 +64,21 @@ def _loop(dX, q, i, j, L0, k_n, k_diag, k_off, out, rows):
         M_i = k_diag[b] * phi_i + k_off[b] * phi_j
         M_j = k_off[b] * phi_i + k_diag[b] * phi_j
         N = k_n[b] * (L - L0[b])
+        if tension[b] < np.inf:          # breakable (BeamBonds.breakable, failure)
+            axial = (L - L0[b]) / L0[b]
+            if axial + max(abs(M_i), abs(M_j)) * bend[b] > tension[b]:
+                broke = 1
+            elif (abs(M_i + M_j) / L / (k_n[b] * L0[b]) >
+                  shear[b] + friction * max(-axial, 0.0)):
+                broke = 2
+            else:
+                broke = 0
+            if broke:
+                alive[b] = False
+                snapped[n_snap] = b
+                mode[n_snap] = broke
+                n_snap += 1
+                continue
         # f_j = -N e1 + V e2, e1 = d / L, e2 = (-dy, dx) / L, V = (M_i + M_j) / L
         a = N / L
         c = (M_i + M_j) / (L * L)
@@ -77,13 +95,24 @@ def _loop(dX, q, i, j, L0, k_n, k_diag, k_off, out, rows):
         out[cur, 0] += fx
         out[cur, 1] += fy
         out[cur, 2] += m
+    return n_snap
 
 
-def beam_forces(bonds, q, out, rows=None, accumulate=False):
-    """out[rows, 3] (+)= forces and torques of :class:`~solver.partitions.beam_bond.BeamBonds`
-    ``bonds`` (sorted by i) at ``q`` [n, 3] = (u_x, u_y, theta)."""
+def beam_forces(bonds, q, out, rows=None, accumulate=False, snapped=None, mode=None) -> int:
+    """out[rows, 3] (+)= forces and torques of the live bonds of
+    :class:`~solver.partitions.beam_bond.BeamBonds` ``bonds`` (sorted by i) at
+    ``q`` [n, 3] = (u_x, u_y, theta); a breakable bond beyond its strength
+    breaks first (alive False) and exerts nothing.  Returns how many broke:
+    their indices in ``snapped`` and modes (1 tension, 2 shear) in ``mode``
+    (arrays of at least as many entries as bonds; needed when any can
+    break)."""
     if not accumulate:
         out[:] = 0.0
-    _loop(bonds.rest, q, bonds.i, bonds.j, bonds.L0, bonds.k_n, bonds.k_diag, bonds.k_off, out,
-          len(out) if rows is None else rows)
-    return out
+    if snapped is None:
+        snapped = mode = _NONE
+    return _loop(bonds.rest, q, bonds.i, bonds.j, bonds.L0, bonds.k_n, bonds.k_diag,
+                 bonds.k_off, bonds.alive, bonds.tension, bonds.shear, bonds.bend,
+                 bonds.friction, out, len(out) if rows is None else rows, snapped, mode)
+
+
+_NONE = np.zeros(0, np.int64)

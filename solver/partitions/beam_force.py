@@ -10,8 +10,10 @@ exerts no force or torque.  The ghost particles (another piece's, on a
 partition split over ranks), the bond order and the energy shares are those
 of :class:`~solver.partitions.bonds.BondForce`, which this extends; the
 other elements (bonds carried to a transition band's nodes) stay linear,
-one MatMult.  Beam bonds do not break, touch or heat yet (the scene refuses
-break_strain, contact and heat with them).
+one MatMult.  With ``model.lattice.break_strain`` a beam breaks in tension
+(its most stretched fibre) or in shear (Mohr-Coulomb), its mode recorded
+(:meth:`BeamBonds.breakable`).  Beams do not touch or heat yet (the scene
+refuses contact and heat with them).
 """
 from __future__ import annotations
 
@@ -22,10 +24,14 @@ from solver.partitions.bonds import BondForce
 
 
 class BeamBondForce(BondForce):
-    """Co-rotational beam bonds between rotating particles (2D)."""
+    """Co-rotational beam bonds between rotating particles (2D), breaking in
+    tension or shear when given a ``break_strain`` (``shear``: (shear_ratio,
+    tan friction angle); ``weibull``: the strengths' spread)."""
 
-    def __init__(self, part, lattice_block, linear_op, other_blocks, tangent):
-        super().__init__(part, lattice_block, linear_op, other_blocks, tangent, None)
+    def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain=None,
+                 weibull=None, shear=None):
+        super().__init__(part, lattice_block, linear_op, other_blocks, tangent, break_strain,
+                         weibull=weibull)
         # lazy: numba loads only when a partition with beam bonds is built
         from solver.partitions.beam_bond_kernel import beam_forces
         self._beam_forces = beam_forces
@@ -33,6 +39,11 @@ class BeamBondForce(BondForce):
         at = {(int(a), int(b)): n for n, (a, b) in enumerate(conn.tolist())}
         k_b = stiff.k_b[[at[(int(a), int(b))] for a, b in self.nodes.tolist()]]
         self.beams = BeamBonds(self.i, self.j, self.dX, self.k, k_b)
+        self.beams.alive = self.alive                    # one mask: breaks, damage, energy
+        if break_strain is not None:
+            ratio, friction = shear
+            self.beams.breakable(self.limit, ratio * self.limit, friction)
+        self._mode = np.zeros(len(self.k), np.int64)
         self._u = np.zeros((len(self.X), part.dof))     # (u_x, u_y, theta) of held + ghosts
         self.space = self.X.shape[1]
 
@@ -40,16 +51,56 @@ class BeamBondForce(BondForce):
         return self.dX[bonds] + (u[self.j[bonds], :2] - u[self.i[bonds], :2])
 
     def internal(self, u_vec, out_vec):
-        """out = f_int(u): forces and torques of the beams (compiled loop),
-        plus the carried bonds' linear operator."""
+        """out = f_int(u): forces and torques of the beams (compiled loop; a
+        beam beyond its strength breaks first), plus the carried bonds'
+        linear operator."""
         q, n = self.displacements(u_vec), self.n_held
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
         out = out_vec.getArray().reshape(n, self.dim)
-        self._beam_forces(self.beams, q, out, n, accumulate=self.operator is not None)
+        snapped = self._beam_forces(self.beams, q, out, n, self.operator is not None,
+                                    self._snapped, self._mode)
+        if snapped:
+            self._break_beams(self._snapped[:snapped].copy(), self._mode[:snapped].copy(), q)
+
+    def _break_beams(self, which, mode, q):
+        """Record beams ``which`` as broken at ``q`` in ``mode`` (1 tension, 2
+        shear): time, midpoint, the strain that broke it (the outer fibre's,
+        or |V| / (E_b A)) and its limit, temperature (NaN), mode, the energy it
+        held, particles.  The energy counts once: on the piece owning its
+        first particle."""
+        sub = self.beams.subset(which)
+        fibre, slip, t_limit, s_limit = sub.failure(q[:, :2], q[:, 2])
+        shear = mode == 2
+        strain, limit = np.where(shear, slip, fibre), np.where(shear, s_limit, t_limit)
+        energy = sub.energies(q[:, :2], q[:, 2])
+        i, j = self.i[which], self.j[which]
+        mid = 0.5 * ((self.X[i] + self.X[j]) + (q[i, :2] + q[j, :2]))
+        first = i < self.part.layout.n_owned
+        self.released += float(energy[first].sum())
+        for w, row in zip(which[first].tolist(),
+                          np.column_stack([mid, strain, limit, np.full(which.size, np.nan),
+                                           mode, energy])[first].tolist()):
+            self.broken.append((self.now, *row, int(self.nodes[w, 0]), int(self.nodes[w, 1])))
+
+    def restore_broken(self, rows):
+        """Beams broken before a checkpoint (rows of :meth:`_break_beams`, any
+        rank layout): broken again here, their records and the energy they
+        held on the piece that owns their first particle."""
+        width = 8 + self.space
+        rows = np.asarray(rows, dtype=float).reshape(-1, width) if len(rows) else \
+            np.zeros((0, width))
+        pairs = {(int(a), int(b)) for a, b in rows[:, -2:].astype(np.int64).tolist()}
+        key = zip(self.nodes[:, 0].tolist(), self.nodes[:, 1].tolist())
+        self.alive[:] = [pair not in pairs for pair in key]
+        owned = set(self.part.layout.owned.tolist())
+        mine = [r for r in rows.tolist() if int(r[-2]) in owned]
+        self.broken = [tuple(r[:-2]) + (int(r[-2]), int(r[-1])) for r in mine]
+        self.released = float(sum(r[-3] for r in mine))
 
     def reference_internal(self, u_vec, out_vec):
-        """The same in numpy (:class:`~solver.partitions.beam_bond.BeamBonds`)."""
+        """The live beams' forces in numpy (:class:`~solver.partitions.beam_bond.BeamBonds`;
+        nothing breaks here)."""
         q, n = self.displacements(u_vec), self.n_held
         force, torque = self.beams.forces(q[:, :2], q[:, 2])
         out = np.column_stack([force, torque])[:n].ravel()
@@ -60,15 +111,16 @@ class BeamBondForce(BondForce):
             out_vec.getArray()[:] = out
 
     def virial(self, u, bonds, c) -> float:
-        """sum f_c d_c over ``bonds`` at ``u`` [n, 3]: f = N e1 - V e2 the beam's
-        force on its first particle (axial and shear)."""
+        """sum f_c d_c over the live ``bonds`` at ``u`` [n, 3]: f = N e1 - V e2 the
+        beam's force on its first particle (axial and shear)."""
         return self.beams.virial(u[:, :2], u[:, 2], bonds, c)
 
     def energy(self, part) -> float:
-        """Strain energy of the beams, half to each end this piece owns, plus
-        the other elements' (owned rows)."""
+        """Strain energy of the live beams, half to each end this piece owns,
+        plus the other elements' (owned rows)."""
         q = self.displacements(part.u)
-        total = float(np.dot(self.beams.energies(q[:, :2], q[:, 2]), self._share()))
+        e = np.where(self.alive, self.beams.energies(q[:, :2], q[:, 2]), 0.0)
+        total = float(np.dot(e, self._share()))
         if self.operator is not None:
             n = part.n_energy
             self.operator.mult(part.u, part.r)

@@ -49,6 +49,16 @@ class DemPartition(Partition):
             return LinearForce(B, blocks)
         return self._nonlinear(model, blocks, B)
 
+    @staticmethod
+    def _spread(force, lat) -> str:
+        """The log's words on the strengths' Weibull spread ("" without one)."""
+        if lat.weibull is None:
+            return ""
+        here = (f"; this piece's {force.limit.min():.3g} to {force.limit.max():.3g}"
+                if force.limit.size else "")
+        return (f" x a Weibull factor (modulus {lat.weibull[0]:g}, mean 1, seed "
+                f"{lat.weibull[1]}{here})")
+
     def _nonlinear(self, model, blocks, B):
         """Lattice bonds from the current configuration (and breakage); the other
         elements keep a linear operator; B (all of them, at rest) is the tangent."""
@@ -62,20 +72,23 @@ class DemPartition(Partition):
         contact = model.contact
         lat = model.lattice
         if lat.bending is not None:
-            force = BeamBondForce(self, (conn, stiff), other, others, B)
+            force = BeamBondForce(self, (conn, stiff), other, others, B, lat.break_strain,
+                                  lat.weibull, lat.shear)
+            what = ""
+            if lat.break_strain is not None:
+                ratio, friction = lat.shear
+                what = (f", breaking in tension beyond an outer-fibre strain of "
+                        f"{lat.break_strain:g} or in shear beyond {ratio:g} x that (+ "
+                        f"{friction:.3g} x compression){self._spread(force, lat)}")
+            ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
             self.built.append(f"{len(force.k)} beam bonds between rotating particles (axial, "
-                              "shear, bending; current configuration){}".format(
-                                  f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""))
+                              f"shear, bending; current configuration){what}{ghosts}")
             return force
         force = BondForce(self, (conn, stiff), other, others, B, lat.break_strain,
                           contact, model.heat, model.mass, lat.weibull)
         strain = (f", breaking beyond strain {lat.break_strain:g}"
                   if lat.break_strain is not None else "")
-        if lat.weibull is not None:
-            here = (f"; this piece's {force.limit.min():.3g} to {force.limit.max():.3g}"
-                    if force.limit.size else "")
-            strain += (f" x a Weibull factor (modulus {lat.weibull[0]:g}, mean 1, seed "
-                       f"{lat.weibull[1]}{here})")
+        strain += self._spread(force, lat)
         if contact is not None:
             law, zeta, mu = contact.law, contact.damping_ratio, contact.friction
             dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \

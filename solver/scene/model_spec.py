@@ -285,8 +285,9 @@ class LatticeSpec:
         "(large rotations exert no force), needed for break_strain", "linear",
         parse=registered(BOND_GEOMETRIES), choices_doc=BOND_GEOMETRIES.choices)
     break_strain: float | None = key(
-        "nonlinear bonds break for good when their strain (L - L0)/L0 exceeds this; the "
-        "released energy and every break (time, place, strain) are recorded", None,
+        "nonlinear bonds break for good when their strain (L - L0)/L0 exceeds this (beams: "
+        "the strain of their most stretched fibre, axial plus bending); the released energy "
+        "and every break (time, place, strain; beams: mode) are recorded", None,
         positive=True)
     weibull_modulus: float | None = key(
         "Weibull modulus m of the bonds' strengths: each bond breaks at break_strain x w, w "
@@ -320,11 +321,21 @@ class LatticeSpec:
     radius_spread: float | None = key(
         "kind random: radii uniform in spacing/2 x (1 -+ radius_spread), below 1; default 0",
         None, nonnegative=True)
+    shear_ratio: float | None = key(
+        "bond: beam with break_strain: a beam breaks in shear when its shear stress |V|/A "
+        "exceeds shear_ratio x its tensile strength E_b break_strain (plus the friction "
+        "term); default 1 (Potyondy & Cundall's parallel bond, docs/bonds.md)", None,
+        positive=True)
+    friction_angle: float | None = key(
+        "bond: beam with break_strain: Mohr-Coulomb friction angle [degrees] of the bonds' "
+        "shear strength, which grows by the compressive stress across the bond x tan(angle); "
+        "default 0", None, nonnegative=True)
     bond: Literal["central", "beam"] = key(
         "central: bonds carry a normal force only (the packing's own nu); beam (2D, kind "
         "random, geometry nonlinear): particles rotate (one more DOF each, inertia 1/2 m r^2) "
         "and bonds are co-rotational beams carrying normal and shear force and bending "
-        "moments, calibrated to E and nu (nu from 0 to the central value, docs/bonds.md)",
+        "moments, calibrated to E and nu (nu from 0 to the central value), breaking in "
+        "tension or shear with break_strain (docs/bonds.md)",
         "central")
 
     @property
@@ -361,10 +372,18 @@ class LatticeSpec:
             if self.kind != "random" or not BOND_GEOMETRIES[self.geometry].current:
                 fail(f"{path}.bond", "beam bonds join the particles of a random packing from "
                      "their current configuration: give kind: random and geometry: nonlinear")
-            for name in ("contact", "break_strain"):
+            for name in ("contact",):
                 if getattr(self, name) is not None:
                     fail(f"{path}.{name}", "is not yet available with bond: beam (rotating "
                          "particles are elastic: docs/reference/limits.md)")
+        for name in ("shear_ratio", "friction_angle"):
+            if getattr(self, name) is not None and (self.bond != "beam" or
+                                                    self.break_strain is None):
+                fail(f"{path}.{name}", "sets the shear strength of breakable beam bonds: give "
+                     "bond: beam and break_strain")
+        if self.friction_angle is not None and not 0.0 <= self.friction_angle < 90.0:
+            fail(f"{path}.friction_angle", f"{self.friction_angle:g} degrees: give an angle in "
+                 "[0, 90)")
         if self.break_strain is not None and not BOND_GEOMETRIES[self.geometry].breakable:
             fail(f"{path}.break_strain", "needs geometry: nonlinear (a small-strain bond does not "
                  "know its current length)")
