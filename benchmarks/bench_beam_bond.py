@@ -17,7 +17,9 @@ in one process:
 - a STREAM-like triad (numpy, a = b + 3 c; bench_throughput.py's) on this
   machine, the bandwidth limit.
 The loop's traffic is counted as the bytes it must move at least: per bond
-the rest separation and length, three stiffnesses and two indices (64 B), per particle its (u_x, u_y, theta) read once and (f_x, f_y, torque)
+the rest separation and length, three stiffnesses, two indices, its tensile
+limit and live flag (73 B: the loop tests them even for unbreakable bonds),
+per particle its (u_x, u_y, theta) read once and (f_x, f_y, torque)
 read and written (72 B).  Its time against that traffic over the triad's
 bandwidth says whether the loop is limited by memory or by arithmetic
 (each bond takes a sqrt, three divisions and, beyond 0.01 rad of chord
@@ -42,7 +44,7 @@ from solver.partitions.beam_bond import BeamBonds  # noqa: E402
 from solver.partitions.beam_bond_kernel import beam_forces  # noqa: E402
 from solver.partitions.bond_kernel import bond_forces  # noqa: E402
 
-BOND_BYTES, PARTICLE_BYTES = 64, 72
+BOND_BYTES, PARTICLE_BYTES = 73, 72
 
 
 def main(argv=None):
