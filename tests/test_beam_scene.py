@@ -74,8 +74,8 @@ def test_a_pulse_crosses_rotating_particles_as_through_the_bar(tmp_path):
 
 def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(tmp_path):
     """The pulse breaks the beam-bonded core (break_strain 7e-4 of the outer
-    fibre, shear_ratio 0.1): beams break in both modes (measured: 73 in
-    tension, 117 in shear from 31.8 us), each recorded strain beyond its
+    fibre, shear_ratio 0.1): beams break in both modes (measured by 42 us:
+    69 in tension, 114 in shear from 31.8 us), each recorded strain beyond its
     limit; the released energy is the sum of the recorded energies and the
     energy audit closes to 2e-3 (measured 1.2e-3: the energy a bond held at
     the evaluation that found it broken, counted in full).  Stopped while
@@ -84,7 +84,7 @@ def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(
     uninterrupted 1-rank run, its probes within 1e-9 of the peak."""
     raw = beam_bar(break_strain=7.0e-4, shear_ratio=0.1)
     raw["probes"] = raw["probes"][1:2]                        # B, in the core
-    whole, short = stop_and_restart(raw, tmp_path, END, 3.9998e-5, 1000,
+    whole, short = stop_and_restart(raw, tmp_path, 4.2e-5, 3.5e-5, 500,
                                     n=2, restart=["--set", "partitions.dem.ranks=2"])
     got = {}
     for name, path in (("whole", whole), ("short", short)):
