@@ -4,7 +4,8 @@
 :func:`apply` fills u0 and v0 (by group, or every node, with numbers or
 expressions of position: :mod:`solver.scene.expression`), in the order the
 entries are given, on the translational DOFs (a shell node's rotations start
-at rest), refuses motion on a fixed DOF naming the entry and the node, and
+at rest; a rotating particle's, ``model.lattice.bond: beam``, turn with the
+field: half its curl), refuses motion on a fixed DOF naming the entry and the node, and
 sets the model's ``gravity``.  The partitions start from u0 and v0 with
 a_0 = M^-1 (f(0) - K u_0) and apply m g on every held node
 (:class:`solver.partitions.loads.Loads`).
@@ -59,6 +60,11 @@ def _motion(arrays, motion, mesh, dim) -> dict:
                 values[first + c] = expression.evaluate(value, arrays.points[nodes],
                                                         f"{path}.{name}[{c}]")
                 setter[name][first + c] = i
+            if arrays.rotary is not None:              # rotating particles turn with the field
+                turns = ~arrays.fixed[first + dim]
+                at = first[turns] + dim
+                values[at] = _rotation(given, arrays.points[nodes[turns]], path, name)
+                setter[name][at] = i
     for name, values in state.items():
         # round-off of an expression that vanishes at the support (sin(pi x / L) at
         # x = L: 6e-17) is no motion: it is zeroed; more than that is refused
@@ -75,6 +81,22 @@ def _motion(arrays, motion, mesh, dim) -> dict:
                 "those nodes out of the group")
         values[fixed] = 0.0
     return {"v0": state["velocity"], "u0": state["displacement"]}
+
+
+def _rotation(given, points, path, name) -> np.ndarray:
+    """1/2 (d g_y/dx - d g_x/dy) of the 2D field ``given`` at ``points``: the
+    rotation (or angular velocity) of a particle moving with it (a rigid
+    spin's is the spin), by central differences of step 1e-6 x the points'
+    extent (exact for a field linear in x and y)."""
+    h = 1e-6 * max(float(np.ptp(points, axis=0).max(initial=0.0)), 1e-9)
+    out = np.zeros(len(points))
+    for c, axis, sign in ((1, 0, 1.0), (0, 1, -1.0)):
+        step = np.zeros(points.shape[1])
+        step[axis] = h
+        label = f"{path}.{name}[{c}]"
+        out += sign * (expression.evaluate(given[c], points + step, label) -
+                       expression.evaluate(given[c], points - step, label)) / (4.0 * h)
+    return out
 
 
 def describe(model) -> list[str]:
