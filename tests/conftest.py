@@ -99,13 +99,16 @@ def run_scene(raw: dict, tmp_path: Path, comm=None):
 
 
 def stop_and_restart(raw: dict, tmp_path: Path, end: float, stop: float, every: int,
-                     energy_every: int = 10, n: int | None = None, before=None, restart=()):
+                     energy_every: int = 10, n: int | None = None, before=None, restart=(),
+                     whole: Path | None = None):
     """Run ``raw`` through the CLI to ``end`` in one go ("whole") and to ``stop``
     ("short"), both with a checkpoint every ``every`` system steps, then restart
     "short" to ``end`` (on ``n`` ranks, with the command-line arguments
     ``restart``); ``before(path)`` looks at the short run's file before the
-    restart.  Returns the paths of both outputs."""
-    for name, t in (("whole", end), ("short", stop)):
+    restart.  ``whole``: the output of a run to ``end`` made already (by a
+    fixture another test shares), used instead of a new one.  Returns the
+    paths of both outputs."""
+    for name, t in (("whole", end), ("short", stop))[whole is not None:]:
         run = copy.deepcopy(raw)
         run["name"], run["time"]["end"] = name, t
         run["output"] = {"file": str(tmp_path / f"{name}.h5"), "checkpoint": {"every": every},
@@ -119,7 +122,7 @@ def stop_and_restart(raw: dict, tmp_path: Path, end: float, stop: float, every: 
     proc = run_cli([tmp_path / "short.yaml", "--restart", tmp_path / "short.h5", *restart], n=n,
                    timeout=300)
     assert proc.returncode == 0, proc.stderr
-    return tmp_path / "whole.h5", tmp_path / "short.h5"
+    return whole or tmp_path / "whole.h5", tmp_path / "short.h5"
 
 
 @pytest.fixture

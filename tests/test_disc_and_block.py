@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import h5py
 import numpy as np
+import pytest
 
 from conftest import raw_scene, run_cli, write_scene
 from solver.model import calibration
@@ -14,14 +15,27 @@ from solver.model import calibration
 R, T, ALPHA, RAMP = 0.02, 0.02, np.radians(10.0), 5.0e-5
 
 
-def split(tmp_path, n, scene="brazilian_disc", v=0.02):
-    """(t, load on the driven edges from their work rate, broken bonds) of the
-    scene on n ranks; each driven edge moves at ``v``."""
+def specimen(tmp_path, scene="brazilian_disc"):
+    """The output of the scene run on 1 rank (checkpoints too: the restart
+    test compares with it)."""
     raw = raw_scene(scene)
-    raw["output"] = {"file": str(tmp_path / f"d{n}.h5"), "progress": 0, "energy_every": 20}
-    proc = run_cli([write_scene(tmp_path / f"d{n}.yaml", raw)], n=n, timeout=300)
+    raw["output"] = {"file": str(tmp_path / f"{scene}.h5"), "progress": 0, "energy_every": 20,
+                     "checkpoint": {"every": 2000}}
+    proc = run_cli([write_scene(tmp_path / f"{scene}.yaml", raw)], timeout=300)
     assert proc.returncode == 0, proc.stderr
-    with h5py.File(tmp_path / f"d{n}.h5") as f:
+    return tmp_path / f"{scene}.h5"
+
+
+@pytest.fixture(scope="module")
+def disc(tmp_path_factory):
+    """configs/brazilian_disc.yaml run once, for the split and the restart tests."""
+    return specimen(tmp_path_factory.mktemp("disc"))
+
+
+def split(path, v=0.02):
+    """(t, load on the driven edges from their work rate, broken bonds) of the
+    run ``path``; each driven edge moves at ``v``."""
+    with h5py.File(path) as f:
         e = {k: f[f"energy/{k}"][()] for k in f["energy"]}
         b = f["broken_bonds"][()]
     t, W = e["t"], e["external_work"]
@@ -30,14 +44,14 @@ def split(tmp_path, n, scene="brazilian_disc", v=0.02):
     return t, P, b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))]
 
 
-def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(tmp_path):
+def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(disc):
     """The jaws' load (from the rate of their work) rises to a peak and drops
     below half of it within 50 us; Hondros's centre stress at the peak is the
     estimate E eps_c / (c (1 + 3 nu)) within 10 % (measured: +6 %); over 90 %
     of the broken bonds lie within 5 mm of the loaded diameter and they reach
     from y < -14 mm to y > 14 mm (the disc's core is 18 mm).  (1 vs 2 ranks:
     the restart test below.)"""
-    t, P, b = split(tmp_path, 1)
+    t, P, b = split(disc)
     k = int(np.argmax(P))
     assert 0.5e-3 < t[k] < 0.99e-3
     assert P[(t > t[k]) & (t < t[k] + 5e-5)].min() < 0.5 * P[k]
@@ -55,7 +69,7 @@ def test_the_block_fails_in_compression_at_the_estimated_stress(tmp_path):
     calibration's most stretched bond under uniaxial compression per unit
     axial strain; measured: +10 %) soon after its first bonds break (above 80 %
     of the peak: brittle), then falls below 60 % within 50 us."""
-    t, P, b = split(tmp_path, 1, "compression_block", 0.05)
+    t, P, b = split(specimen(tmp_path, "compression_block"), 0.05)
     k = int(np.argmax(P))
     ucs = P[k] / (0.024 * T)
     estimate = 30.0e9 * 5.0e-4 / calibration.measure(2, 0.0, 1.0, 1).lateral
@@ -64,7 +78,7 @@ def test_the_block_fails_in_compression_at_the_estimated_stress(tmp_path):
     assert P[(t > t[k]) & (t < t[k] + 5e-5)].min() < 0.6 * P[k]
 
 
-def test_a_split_disc_restarts_to_the_same_breaks(tmp_path):
+def test_a_split_disc_restarts_to_the_same_breaks(tmp_path, disc):
     """The disc stopped after its first breaks (0.85 ms) and restarted on 2
     ranks breaks the same bonds at the same steps as one run on 1 rank: the
     random packing and its calibration are rebuilt from the seed alone, and
@@ -72,7 +86,8 @@ def test_a_split_disc_restarts_to_the_same_breaks(tmp_path):
     runs both tests whole on 2 ranks too)."""
     from conftest import stop_and_restart
     raw = raw_scene("brazilian_disc")
-    paths = stop_and_restart(raw, tmp_path, 1.0e-3, 8.5e-4, 2000, energy_every=20, n=2)
+    paths = stop_and_restart(raw, tmp_path, 1.0e-3, 8.5e-4, 2000, energy_every=20, n=2,
+                             whole=disc)
     (b1, n1), (b2, n2) = [(b[np.lexsort((b[:, 7], b[:, 6], b[:, 0]))], b[b[:, 0] <= 8.5e-4].shape[0])
                           for b in (h5py.File(p)["broken_bonds"][()] for p in paths)]
     assert n1 > 0 and len(b1) > 100
