@@ -2,7 +2,8 @@
 the tension pulse of wave_bar_transition through a random packing whose
 particles rotate (nu 0.25 calibrated by the bonds' bending), its energy
 audit and rotations; the pulse breaking beams in tension and shear, the
-same after a restart on 2 ranks; the model's stiffness at rest (FE
+fragments touching with friction that turns them, the same after a restart
+on 2 ranks; the model's stiffness at rest (FE
 cells padded to three DOFs, beams, beams carried to the band's nodes with
 the band particles turning with their cell) gives a rigid motion no force;
 and the bad inputs, each one line."""
@@ -75,16 +76,27 @@ def test_a_pulse_crosses_rotating_particles_as_through_the_bar(tmp_path):
 def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(tmp_path):
     """The pulse breaks the beam-bonded core (break_strain 7e-4 of the outer
     fibre, shear_ratio 0.1): beams break in both modes (measured by 42 us:
-    69 in tension, 114 in shear from 31.8 us), each recorded strain beyond its
+    87 in tension, 124 in shear from 31.8 us), each recorded strain beyond its
     limit; the released energy is the sum of the recorded energies and the
-    energy audit closes to 2e-3 (measured 1.2e-3: the energy a bond held at
-    the evaluation that found it broken, counted in full).  Stopped while
-    breaking and restarted on 2 ranks (the dem partition over both), the run
-    breaks the same beams at the same times in the same modes as the
-    uninterrupted 1-rank run, its probes within 1e-9 of the peak."""
-    raw = beam_bar(break_strain=7.0e-4, shear_ratio=0.1)
+    energy audit closes to 3e-3 (measured 1.6e-3: the energy a bond held at
+    the evaluation that found it broken, counted in full, and the friction's
+    work per step, both first order in the step).  Fragments touch (contact
+    with friction 0.5 on shear springs that turn the particles): friction
+    dissipates (measured 7.7e-4 of the work).  Stopped while breaking with a contact live (its shear
+    history and the pair's rotations in the checkpoint) and restarted on 2
+    ranks (the dem partition over both), the run breaks the same beams at the
+    same times in the same modes as the uninterrupted 1-rank run, its probes
+    within 1e-9 of the peak."""
+    raw = beam_bar(break_strain=7.0e-4, shear_ratio=0.1,
+                   contact={"stiffness": 2e7, "friction": 0.5, "friction_model": "history"})
     raw["probes"] = raw["probes"][1:2]                        # B, in the core
-    whole, short = stop_and_restart(raw, tmp_path, 4.2e-5, 3.5e-5, 500,
+
+    def touching(path):
+        with h5py.File(path) as f:
+            rows = f["checkpoint/partitions/dem/contacts"][()]
+        assert rows.shape[0] >= 1 and rows.shape[1] == 2 + 2 + 3, rows.shape
+
+    whole, short = stop_and_restart(raw, tmp_path, 4.2e-5, 3.64e-5, 1300, before=touching,
                                     n=2, restart=["--set", "partitions.dem.ranks=2"])
     got = {}
     for name, path in (("whole", whole), ("short", short)):
@@ -97,11 +109,12 @@ def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(
     b, u, released, e = got["whole"]
     modes = np.bincount(b[:, 6].astype(int), minlength=3)
     assert modes[1] > 10 and modes[2] > 10, modes
+    assert e["dissipated"][-1] > 2e-4 * e["external_work"].max()
     assert (b[:, 3] > b[:, 4]).all()                          # strain beyond its limit
     assert released == pytest.approx(b[:, 7].sum(), rel=1e-12)
     W = e["external_work"]
     audit = abs(e["kinetic"][-1] + e["strain"][-1] + e["dissipated"][-1] + released - W[-1])
-    assert audit < 2e-3 * W.max(), audit / W.max()
+    assert audit < 3e-3 * W.max(), audit / W.max()
     b2, u2, released2, _ = got["short"]
     assert np.array_equal(b2[:, [0, 6, 8, 9]], b[:, [0, 6, 8, 9]])
     assert released2 == pytest.approx(released, rel=1e-9)
@@ -151,13 +164,12 @@ def test_a_rigid_motion_of_the_whole_model_costs_nothing(tmp_path):
 @pytest.mark.parametrize("sets,key", [
     (["model.lattice.kind=square"], "model.lattice.bond"),
     (["model.lattice.geometry=linear"], "model.lattice.bond"),
-    (["model.lattice.contact.stiffness=1e6"], "model.lattice.contact"),
     (["model.lattice.shear_ratio=0.5"], "model.lattice.shear_ratio"),
     (["model.material.nu=0.4"], "model.lattice.bond"),
 ])
 def test_bad_beam_scenes_are_refused_in_one_line(tmp_path, sets, key):
     """A beam scene that is not a random packing in its current
-    configuration, asks for contact (not yet), a shear strength without
+    configuration, a shear strength without
     break_strain, or a nu beyond what the
     beams cover (0 to the central value, about 0.34 in plane stress): one
     line naming the key, exit 2, no output."""

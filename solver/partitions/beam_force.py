@@ -12,8 +12,11 @@ of :class:`~solver.partitions.bonds.BondForce`, which this extends; the
 other elements (bonds carried to a transition band's nodes) stay linear,
 one MatMult.  With ``model.lattice.break_strain`` a beam breaks in tension
 (its most stretched fibre) or in shear (Mohr-Coulomb), its mode recorded
-(:meth:`BeamBonds.breakable`).  Beams do not touch or heat yet (the scene
-refuses contact and heat with them).
+(:meth:`BeamBonds.breakable`).  With ``model.lattice.contact`` particles
+that share no live beam touch as in :mod:`solver.partitions.contact`, whose
+shear springs and friction then also turn them (the contact point rolls
+with their rotations; the tangential force's moment acts on both).  Beams
+do not heat yet (the scene refuses heat with them).
 """
 from __future__ import annotations
 
@@ -26,12 +29,13 @@ from solver.partitions.bonds import BondForce
 class BeamBondForce(BondForce):
     """Co-rotational beam bonds between rotating particles (2D), breaking in
     tension or shear when given a ``break_strain`` (``shear``: (shear_ratio,
-    tan friction angle); ``weibull``: the strengths' spread)."""
+    tan friction angle); ``weibull``: the strengths' spread); ``contact``:
+    the particles' contact settings (``node_mass``: the model's masses)."""
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain=None,
-                 weibull=None, shear=None):
+                 weibull=None, shear=None, contact=None, node_mass=None):
         super().__init__(part, lattice_block, linear_op, other_blocks, tangent, break_strain,
-                         weibull=weibull)
+                         contact, None, node_mass, weibull)
         # lazy: numba loads only when a partition with beam bonds is built
         from solver.partitions.beam_bond_kernel import beam_forces
         self._beam_forces = beam_forces
@@ -44,8 +48,6 @@ class BeamBondForce(BondForce):
             ratio, friction = shear
             self.beams.breakable(self.limit, ratio * self.limit, friction)
         self._mode = np.zeros(len(self.k), np.int64)
-        self._u = np.zeros((len(self.X), part.dof))     # (u_x, u_y, theta) of held + ghosts
-        self.space = self.X.shape[1]
 
     def separations(self, u, bonds=slice(None)):
         return self.dX[bonds] + (u[self.j[bonds], :2] - u[self.i[bonds], :2])
@@ -53,7 +55,7 @@ class BeamBondForce(BondForce):
     def internal(self, u_vec, out_vec):
         """out = f_int(u): forces and torques of the beams (compiled loop; a
         beam beyond its strength breaks first), plus the carried bonds'
-        linear operator."""
+        linear operator and the contacts'."""
         q, n = self.displacements(u_vec), self.n_held
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
@@ -62,6 +64,8 @@ class BeamBondForce(BondForce):
                                     self._snapped, self._mode)
         if snapped:
             self._break_beams(self._snapped[:snapped].copy(), self._mode[:snapped].copy(), q)
+        if self.contact is not None:
+            self._add_contact(u_vec, q, out)
 
     def _break_beams(self, which, mode, q):
         """Record beams ``which`` as broken at ``q`` in ``mode`` (1 tension, 2
@@ -103,12 +107,14 @@ class BeamBondForce(BondForce):
         nothing breaks here)."""
         q, n = self.displacements(u_vec), self.n_held
         force, torque = self.beams.forces(q[:, :2], q[:, 2])
-        out = np.column_stack([force, torque])[:n].ravel()
+        out = np.column_stack([force, torque])[:n]
+        if self.contact is not None:
+            self._add_contact(u_vec, q, out)
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
-            out_vec.getArray()[:] += out
+            out_vec.getArray()[:] += out.ravel()
         else:
-            out_vec.getArray()[:] = out
+            out_vec.getArray()[:] = out.ravel()
 
     def virial(self, u, bonds, c) -> float:
         """sum f_c d_c over the live ``bonds`` at ``u`` [n, 3]: f = N e1 - V e2 the
@@ -121,6 +127,8 @@ class BeamBondForce(BondForce):
         q = self.displacements(part.u)
         e = np.where(self.alive, self.beams.energies(q[:, :2], q[:, 2]), 0.0)
         total = float(np.dot(e, self._share()))
+        if self.contact is not None:             # of the last force evaluation (one piece)
+            total += self.contact.energy
         if self.operator is not None:
             n = part.n_energy
             self.operator.mult(part.u, part.r)

@@ -107,7 +107,8 @@ class BondForce(Force):
         self._fi = self.i < self.n_held
         self._fj = self.j < self.n_held
         self._ri, self._rj = self.i[self._fi], self.j[self._fj]
-        self._u = np.zeros_like(self.X)            # displacements of held + ghost particles
+        self.space = self.X.shape[1]               # (rotating particles: dim = space + 1)
+        self._u = np.zeros((len(self.X), dim))     # displacements of held + ghost particles
         self._snapped = np.zeros(len(k), dtype=np.int64)
         self.contact = self.halo = None
         if contact is not None:
@@ -131,7 +132,8 @@ class BondForce(Force):
         split = part.comm.size > 1
         self._bonded_contact = (particles, mass)
         self.contact = Contact(particles, settings, self.i, self.j, mass, lay.n_owned,
-                               rest=self.X, decides=not split, ids=self.ids, dt=part.dt)
+                               rest=self.X, decides=not split, ids=self.ids, dt=part.dt,
+                               rotary=self.dim > self.space)
         if split:
             mine = particles[particles < held.size]
             self.halo = ContactHalo(part.comm, self.contact.reach, mine[mine < lay.n_owned],
@@ -160,11 +162,11 @@ class BondForce(Force):
         n, n0 = self.n_held, self._n_bonded
         if u is None:
             u = self.displacements(u_vec)
-        ids, numbers, rest, mass = self.halo.select(self.X[:n] + u[:n])
+        ids, numbers, rest, mass = self.halo.select(self.X[:n] + u[:n, :self.space])
         self._scatter(np.concatenate([self._bond_ghosts, numbers]))
         self.X = np.concatenate([self.X[:n0], rest])
         self.ids = np.concatenate([self.ids[:n0], ids])
-        self._u = np.zeros_like(self.X)
+        self._u = np.zeros((len(self.X), self.dim))
         particles, bonded_mass = self._bonded_contact
         self.contact.renew(np.concatenate([particles, n0 + np.arange(ids.size)]),
                            np.concatenate([bonded_mass, mass]), self.X, self.ids)
@@ -206,28 +208,28 @@ class BondForce(Force):
         return a_here | (~a_owned & b_here)
 
     def contact_history(self):
-        """The shear histories this piece counts, rows (a, b, xi, separation)
-        oriented from the smaller global id a to b (a checkpoint's), or None
-        without them.  Right after a restore, before the search is built
-        again, they are the restored rows this piece counts."""
+        """The shear histories this piece counts, rows (a, b, xi, separation
+        [, sum of rotations]) oriented from the smaller global id a to b (a
+        checkpoint's), or None without them.  Right after a restore, before
+        the search is built again, they are the restored rows this piece
+        counts."""
         if self.contact is None or not self.contact.history:
             return None
         keys, xi, sep = self.contact.table()
         a, b = keys // KEY, keys % KEY
         counted = self._counted(a, b)
-        dim = self.dim
-        return np.column_stack([a, b, xi.reshape(a.size, dim),
-                                sep.reshape(a.size, dim)])[counted]
+        return np.column_stack([a, b, xi.reshape(a.size, self.space),
+                                sep.reshape(a.size, self.dim)])[counted]
 
     def restore_contacts(self, rows):
         """Shear histories of a checkpoint (rows of :meth:`contact_history`, all
         pieces'); they apply from the next force evaluation."""
         if self.contact is None or not self.contact.history:
             return
-        rows = np.asarray(rows, dtype=float).reshape(-1, 2 + 2 * self.dim)
+        rows = np.asarray(rows, dtype=float).reshape(-1, 2 + self.space + self.dim)
         a, b = rows[:, 0].astype(np.int64), rows[:, 1].astype(np.int64)
-        dim = self.dim
-        self.contact.restore(a * KEY + b, rows[:, 2:2 + dim], rows[:, 2 + dim:])
+        space = self.space
+        self.contact.restore(a * KEY + b, rows[:, 2:2 + space], rows[:, 2 + space:])
 
     # ---------------------------------------------------------------- state
     def bonds_at(self, node) -> np.ndarray:

@@ -68,11 +68,14 @@ def coordination(dim: int) -> int:
     return 6 if dim == 2 else 12
 
 
-def bound_stiffness(contact) -> float:
+def bound_stiffness(contact, spin=0.0) -> float:
     """The contact stiffness the step bound uses, from the ContactSettings: a
-    contact's stiffness k n n^T + k_t (I - n n^T) has the norm max(k, k_t)."""
+    contact's stiffness k n n^T + k_t (I - n n^T) has the norm max(k, k_t);
+    ``spin``: the largest r^2 m / I of rotating particles, whose shear spring
+    also turns them (its mass-weighted norm k_t (1/m_i + 1/m_j + l^2/I_i +
+    l^2/I_j), l <= r, is at most k_t (1 + spin) (1/m_i + 1/m_j))."""
     k = contact.law.bound(contact.radius)
-    return k * max(1.0, contact.tangential_stiffness) if contact.history else k
+    return k * max(1.0, contact.tangential_stiffness * (1.0 + spin)) if contact.history else k
 
 
 class Contact:
@@ -95,7 +98,7 @@ class Contact:
     pairs, the reference they are tested against)."""
 
     def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None, rest=None,
-                 decides=True, ids=None, dt=None, compiled=True):
+                 decides=True, ids=None, dt=None, compiled=True, rotary=False):
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self._ordered = bool(np.all(np.diff(self.nodes) > 0))    # pairs keep their order
         self.law = settings.law
@@ -105,6 +108,7 @@ class Contact:
         self.history = settings.history
         self.ratio = settings.tangential_stiffness
         self.mass = mass
+        self.rotary = bool(rotary)        # (2D) u's last column: rotations, out's: torques
         self.ids, self.dt = ids, dt
         self._shear = None                            # (xi, separation, live) per pair of _mine
         self._pending = None                          # a history table for the next build
@@ -121,12 +125,15 @@ class Contact:
         self._mine = None                             # the candidates with an owned end
         self._last = None                  # (i, j, n, tangent k, f_n, shear, d) of the last forces
         dim = rest.shape[1] if rest is not None else None
+        if self.rotary and dim not in (2, None):
+            raise ValueError("contact: rotating particles are 2D (one rotation each)")
         self._code = KERNEL_LAWS.get(self.law.name) if compiled and dim in (2, 3, None) else None
         self.compiled = self._code is not None
         if self.compiled:      # lazy: numba (about 1 s to import) loads only with contact
             from solver.partitions import contact_kernel
             self._kern = contact_kernel
             self._forces = self._viscous = None       # the loops of the dimension (_allocate)
+        self._dim = dim                    # the translations' count (set by build)
         self._eval = None                  # compiled: per candidate pair (see contact_kernel)
         self._fresh = False                # compiled: _last not yet taken from _eval
         self.builds = 0
@@ -137,9 +144,13 @@ class Contact:
         """2r + skin: the distance within which a pair is a candidate."""
         return 2 * self.radius + self.skin
 
+    def _moved(self, u):
+        """The translations of ``u`` (without the rotations of rotating particles)."""
+        return u[:, :-1] if self.rotary else u
+
     def _points(self, u):
         """The positions X + u of the contact particles."""
-        pts = u[self.nodes]
+        pts = self._moved(u)[self.nodes]
         return pts + self.rest[self.nodes] if self.rest is not None else pts
 
     def stale(self, u) -> bool:
@@ -147,6 +158,7 @@ class Contact:
         or a particle has moved more than half the skin since."""
         if self._u_built is None:
             return True
+        u = self._moved(u)
         if self.compiled:
             moved = self._kern.largest_move(u, self.nodes, self._u_built)
         else:
@@ -198,23 +210,24 @@ class Contact:
         self._mine = self._subset((i < self.owned) | (j < self.owned))
         if merge:
             self._shear = self._kern.carry(before[0], before[1], *self._shear, i, j)
-        elif self.history:
-            self._take_over(table, u.shape[1])
+        dim = self._dim = u.shape[1] - self.rotary
+        if not merge and self.history:
+            self._take_over(table, dim)
         self._pending = None
         if self.compiled:
-            self._allocate(u.shape[1])
-        self._u_built = u[self.nodes].copy()
+            self._allocate(dim)
+        self._u_built = self._moved(u)[self.nodes].copy()
         self.builds += 1
 
     def _allocate(self, dim):
         """The compiled loops' arrays for the pairs with an owned end; with
         shear springs the separations are the histories' (the loop advances
-        them)."""
+        them; rotating particles: and the pair's sum of rotations)."""
         i, j, bond, with_bond, rest = self._mine
         m = i.size
         self._forces, self._viscous = self._kern.LOOPS[dim]        # (2D and 3D only)
         none = np.zeros((0, dim))
-        xi, d, live = self._shear if self.history else (none, np.zeros((m, dim)),
+        xi, d, live = self._shear if self.history else (none, np.zeros((m, dim + self.rotary)),
                                                         np.zeros(0, bool))
         self._eval = dict(pi=np.ascontiguousarray(i), pj=np.ascontiguousarray(j),
                           bond=np.ascontiguousarray(bond) if with_bond.size else
@@ -233,7 +246,7 @@ class Contact:
             self._fresh = False
             self._last = None
             if at.size:
-                d, dist = e["d"][at], e["dist"][at]
+                d, dist = e["d"][at, :self._dim], e["dist"][at]
                 f, k, _ = self.law.evaluate(2 * self.radius - dist)
                 shear = ((-self.ratio * k)[:, None] * e["xi"][at], e["sticks"][at]) \
                     if self.history else None
@@ -259,8 +272,15 @@ class Contact:
         at = np.flatnonzero(live)
         keys, sign = self._global(self._mine[0][at], self._mine[1][at])
         order = np.argsort(keys)
-        flip = sign[order, None]
-        return keys[order], xi[at][order] * flip, sep[at][order] * flip
+        return keys[order], xi[at][order] * sign[order, None], self._oriented(sep[at][order],
+                                                                           sign[order])
+
+    def _oriented(self, sep, sign):
+        """Separations ``sep`` turned to orientations ``sign`` (+-1 per pair); a
+        rotating pair's sum of rotations (the last column) is the same either way."""
+        flip = np.ones(sep.shape)
+        flip[:, :self._dim] = sign[:, None]
+        return sep * flip
 
     def restore(self, keys, xi, sep):
         """Shear histories of a checkpoint (global keys, xi and separations
@@ -274,25 +294,30 @@ class Contact:
         """The new candidate pairs' histories from ``table`` (by global ids)."""
         keys, xi, sep = table
         i, j = self._mine[0], self._mine[1]
-        new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim))
+        new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim + self.rotary))
         live = np.zeros(i.size, bool)
         if keys.size and i.size:
             mine, sign = self._global(i, j)
             at = np.minimum(np.searchsorted(keys, mine), keys.size - 1)
             live = keys[at] == mine
             new_xi[live] = xi[at[live]] * sign[live, None]
-            new_sep[live] = sep[at[live]] * sign[live, None]
+            new_sep[live] = self._oriented(sep[at[live]], sign[live])
         self._shear = (new_xi, new_sep, live)
 
-    def _spring(self, at, d, unit, k, fn):
+    def _spring(self, at, d, unit, k, fn, spin=None):
         """The shear springs of the touching pairs ``at`` (indices into the
-        pairs with an owned end) at separations ``d``: their force on j, their
+        pairs with an owned end) at separations ``d`` (rotating particles:
+        ``spin``, each pair's sum of rotations): their force on j, their
         energy, whether each sticks, and the work of sliding (this piece's
         share); the histories advance to this evaluation."""
         xi_all, sep_all, live_all = self._shear
         was = live_all[at]
         xi = np.where(was[:, None], xi_all[at], 0.0)
-        step = np.where(was[:, None], d - sep_all[at], 0.0)
+        now = d if spin is None else np.column_stack([d, spin])
+        step = np.where(was[:, None], now - sep_all[at], 0.0)
+        if spin is not None:           # the contact point rolls by -l (dtheta_i + dtheta_j) t
+            roll = 0.5 * step[:, -1] * np.linalg.norm(d, axis=1)
+            step = step[:, :-1] - roll[:, None] * _tangent(unit)
         length = np.linalg.norm(xi, axis=1)
         xi -= np.einsum("pc,pc->p", xi, unit)[:, None] * unit          # into the tangent plane
         turned = np.linalg.norm(xi, axis=1)
@@ -307,7 +332,7 @@ class Contact:
         xi *= shrink[:, None]
         live_all[:] = False
         live_all[at] = True
-        xi_all[at], sep_all[at] = xi, d
+        xi_all[at], sep_all[at] = xi, now
         return -kt[:, None] * xi, 0.5 * kt * np.einsum("pc,pc->p", xi, xi), ~slides, lost
 
     def _let_go(self, at):
@@ -319,7 +344,7 @@ class Contact:
         gone = np.flatnonzero(gone)
         if not gone.size:
             return 0.0
-        overlap = 2 * self.radius - np.linalg.norm(sep_all[gone], axis=1)
+        overlap = 2 * self.radius - np.linalg.norm(sep_all[gone, :self._dim], axis=1)
         _, k, _ = self.law.evaluate(np.maximum(overlap, 0.0))
         held = 0.5 * self.ratio * k * np.einsum("pc,pc->p", xi_all[gone], xi_all[gone])
         return float(np.dot(held, self._share(self._mine[0][gone], self._mine[1][gone])))
@@ -339,7 +364,8 @@ class Contact:
             i, j, bond, with_bond, rest = self._mine
         else:
             i, j, bond, with_bond, rest = self._subset((self._pairs == node).any(axis=1))
-        d = u[j] - u[i]
+        moved = self._moved(u)
+        d = moved[j] - moved[i]
         if rest is not None:
             d += rest
         dist = np.linalg.norm(d, axis=1)
@@ -377,7 +403,7 @@ class Contact:
             self.energy, self._slipped = self._forces(
                 e["pi"], e["pj"], e["bond"], alive, e["rest"], u, self.radius, self._code,
                 self.law.stiffness, self.history, self.ratio, self.mu, e["xi"], e["live"],
-                e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned)
+                e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned, self.rotary)
             self._fresh = True
             return
         i, j, d, dist, overlap, at = self._touching(u, alive)
@@ -393,14 +419,27 @@ class Contact:
         share = self._share(i, j)
         shear = None
         if self.history:
-            spring, held, sticks, slipped = self._spring(at, d, unit, k, f)
+            spin = u[i, -1] + u[j, -1] if self.rotary else None
+            spring, held, sticks, slipped = self._spring(at, d, unit, k, f, spin)
             force += spring
             energy = energy + held
             self._slipped = float(np.dot(slipped, share)) + let_go
             shear = (spring, sticks)
+            if self.rotary:
+                self._torques(out, rows, i, j, d, spring)
         self.energy = float(np.dot(energy, share))
         self._last = (i, j, unit, k, f, shear, d)
         _scatter(out, rows, i, j, force)
+
+    @staticmethod
+    def _torques(out, rows, i, j, d, f):
+        """Add the moment -l n x f of tangential forces ``f`` on j (l = |d| / 2,
+        the contact point half way) to both particles' torques (out's last
+        column)."""
+        torque = -0.5 * (d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0])
+        for end in (i, j):
+            keep = end < rows
+            out[:, -1] += np.bincount(end[keep], torque[keep], minlength=rows)
 
     def touching(self):
         """(i, j) local indices of the pairs in contact at the last :meth:`forces`."""
@@ -427,13 +466,14 @@ class Contact:
             return slipped + self._viscous(
                 e["pi"], e["pj"], e["touch"], e["d"], e["dist"], self.radius, self._code,
                 self.law.stiffness, self.history, e["xi"], e["sticks"], self.mass, v, self.zeta,
-                self.mu, self.zeta_t, self.ratio, out, rows, self.owned)
+                self.mu, self.zeta_t, self.ratio, out, rows, self.owned, self.rotary)
         if self._last is None:
             return slipped
-        i, j, unit, k, fn, shear, _ = self._last
+        i, j, unit, k, fn, shear, d_last = self._last
         mi, mj = self.mass[i], self.mass[j]
         root = np.sqrt(k * mi * mj / (mi + mj))
-        dv = v[j] - v[i]
+        moved = self._moved(v)
+        dv = moved[j] - moved[i]
         vn = np.einsum("pc,pc->p", dv, unit)                    # separation rate
         force = np.zeros_like(dv)                               # on j
         power = np.zeros(len(i))
@@ -443,6 +483,9 @@ class Contact:
             power += c * vn ** 2
         if self.mu:
             vt = dv - vn[:, None] * unit                         # sliding velocity of j on i
+            if self.rotary:                              # the spins' part -l (w_i + w_j) t
+                vt -= (0.5 * (v[i, -1] + v[j, -1]) * np.linalg.norm(d_last, axis=1))[:, None] * \
+                    _tangent(unit)
             speed = np.linalg.norm(vt, axis=1)
             if shear is None:
                 ft = np.minimum(self.mu * fn, 2 * self.zeta_t * root * speed)
@@ -452,15 +495,24 @@ class Contact:
                 ft = np.where(sticks, np.minimum(
                     room, 2 * self.zeta_t * np.sqrt(self.ratio) * root * speed), 0.0)
             slide = speed > 0
-            force[slide] -= (ft[slide] / speed[slide])[:, None] * vt[slide]
+            friction = np.zeros_like(vt)
+            friction[slide] = -(ft[slide] / speed[slide])[:, None] * vt[slide]
+            force += friction
             power += ft * speed
+            if self.rotary:
+                self._torques(out, rows, i, j, d_last, friction)
         _scatter(out, rows, i, j, force)
         return slipped + float(np.dot(power, self._share(i, j)))
+
+
+def _tangent(unit):
+    """t = z x n of 2D unit vectors ``unit``."""
+    return np.column_stack([-unit[:, 1], unit[:, 0]])
 
 
 def _scatter(out, rows, i, j, f):
     """out[j] += f, out[i] -= f for rows < ``rows`` (f on j, away from i)."""
     keep_i, keep_j = i < rows, j < rows
-    for c in range(out.shape[1]):
+    for c in range(f.shape[1]):
         out[:, c] -= np.bincount(i[keep_i], f[keep_i, c], minlength=rows)
         out[:, c] += np.bincount(j[keep_j], f[keep_j, c], minlength=rows)

@@ -38,7 +38,7 @@ def loops(dim: int):
 
     @numba.njit(cache=True, nogil=True, boundscheck=False)
     def contact_forces(pi, pj, bond, alive, rest, u, radius, law, stiff, history, ratio, mu, xi,
-                       live, touch, d, dist, sticks, out, rows, owned):
+                       live, touch, d, dist, sticks, out, rows, owned, rotary):
         """Add the contact forces of the candidate pairs (pi, pj), sorted by pi,
         at displacements ``u`` (positions X + u; ``rest``: X_j - X_i per pair, or
         an empty array when ``u`` holds positions; ``bond``: each pair's bond or
@@ -48,24 +48,35 @@ def loops(dim: int):
         piece's shares (half per end below ``owned``).
         ``d`` holds each pair's separation of the last call and receives this
         call's; with ``history`` the shear displacements ``xi`` of the pairs
-        ``live`` (touching at the last call) advance from it to this call."""
+        ``live`` (touching at the last call) advance from it to this call.
+        ``rotary`` (2D): column ``dim`` of ``u`` and ``out`` is each particle's
+        rotation and torque, column ``dim`` of ``d`` each pair's sum of
+        rotations at the last call; the contact point, half way between the
+        centres, rolls by -l (dtheta_i + dtheta_j) t (l = r / 2, t = z x n)
+        and the shear force's moment -l n x f acts on both particles."""
         with_rest = rest.shape[0] > 0
         with_bonds = bond.shape[0] > 0
         energy = 0.0
         slipped = 0.0
         two_r = 2.0 * radius
         step = np.zeros(dim)
-        run = np.zeros(dim)                        # the sum on row pi[p] over its run of pairs
+        width = dim + 1 if rotary else dim         # forces (and the torque)
+        run = np.zeros(width)                      # the sum on row pi[p] over its run of pairs
         cur = -1
         for p in range(pi.size):
             a, b = pi[p], pj[p]
             if a != cur:
                 if 0 <= cur < rows:
-                    for c in range(dim):
+                    for c in range(width):
                         out[cur, c] += run[c]
                 cur = a
-                for c in range(dim):
+                for c in range(width):
                     run[c] = 0.0
+            turned = 0.0
+            if rotary:                             # the pair's rotations since the last call
+                spin = u[a, dim] + u[b, dim]
+                turned = spin - d[p, dim]
+                d[p, dim] = spin
             s = 0.0
             for c in range(dim):
                 x = u[b, c] - u[a, c]
@@ -108,13 +119,17 @@ def loops(dim: int):
                         step_n += step[c] * d[p, c]
                     proj *= inv
                     step_n *= inv
-                    turned = held - proj * proj
-                    scale = np.sqrt(held / turned) if turned > 0.0 else 0.0
+                    left = held - proj * proj
+                    scale = np.sqrt(held / left) if left > 0.0 else 0.0
                     for c in range(dim):
                         n = d[p, c] * inv
-                        x = (xi[p, c] - proj * n) * scale + (step[c] - step_n * n)
-                        xi[p, c] = x
-                        length2 += x * x
+                        xi[p, c] = (xi[p, c] - proj * n) * scale + (step[c] - step_n * n)
+                    if rotary:     # rolled by -l (dtheta_i + dtheta_j) t, t = (-n_y, n_x)
+                        roll = 0.5 * turned        # l x (turns) / r: d carries the r
+                        xi[p, 0] += roll * d[p, 1]
+                        xi[p, 1] -= roll * d[p, 0]
+                    for c in range(dim):
+                        length2 += xi[p, c] * xi[p, c]
                 else:
                     for c in range(dim):
                         xi[p, c] = 0.0
@@ -139,21 +154,28 @@ def loops(dim: int):
                 if b < rows:
                     out[b, c] += g
                 run[c] -= g
+            if rotary and history:     # -l n x (-k_t xi) on both, l = r / 2
+                torque = 0.5 * kt * (d[p, 0] * xi[p, 1] - d[p, 1] * xi[p, 0])
+                if b < rows:
+                    out[b, dim] += torque
+                run[dim] += torque
         if 0 <= cur < rows:
-            for c in range(dim):
+            for c in range(width):
                 out[cur, c] += run[c]
         return energy, slipped
 
 
     @numba.njit(cache=True, nogil=True, boundscheck=False)
     def contact_viscous(pi, pj, touch, d, dist, radius, law, stiff, history, xi, sticks, mass, v,
-                        zeta, mu, zeta_t, ratio, out, rows, owned):
+                        zeta, mu, zeta_t, ratio, out, rows, owned, rotary):
         """Add the dashpot and friction forces of the pairs touching at the last
         :func:`contact_forces` at velocities ``v`` to ``out``; returns their
         dissipated power (this piece's share).  Without ``history`` friction is
         min(mu f_n, c_t |v_t|) against the sliding velocity; with it, a dashpot
         beside a sticking spring, the two together at most mu f_n, nothing
-        beside a sliding one."""
+        beside a sliding one.  ``rotary``: the contact point's sliding velocity
+        has the particles' spins' part -l (omega_i + omega_j) t, and the
+        friction's moment acts on both (as in :func:`contact_forces`)."""
         power = 0.0
         force = np.zeros(dim)
         vt = np.zeros(dim)
@@ -181,6 +203,11 @@ def loops(dim: int):
                 speed = 0.0
                 for c in range(dim):
                     vt[c] = (v[b, c] - v[a, c]) - vn * d[p, c] / r
+                if rotary:
+                    roll = 0.5 * (v[a, dim] + v[b, dim])     # l (omega_i + omega_j) / r
+                    vt[0] += roll * d[p, 1]
+                    vt[1] -= roll * d[p, 0]
+                for c in range(dim):
                     speed += vt[c] * vt[c]
                 speed = np.sqrt(speed)
                 if not history:
@@ -196,6 +223,12 @@ def loops(dim: int):
                 if speed > 0.0:
                     for c in range(dim):
                         force[c] -= ft / speed * vt[c]
+                    if rotary:             # -l n x f_t on both
+                        torque = 0.5 * ft / speed * (d[p, 0] * vt[1] - d[p, 1] * vt[0])
+                        if b < rows:
+                            out[b, dim] += torque
+                        if a < rows:
+                            out[a, dim] += torque
                 pw += ft * speed
             for c in range(dim):
                 if b < rows:
@@ -332,9 +365,9 @@ def carry(old_i, old_j, xi, sep, live, new_i, new_j):
     """The shear histories (xi, last separation, live) of new pairs (new_i,
     new_j) from those of old pairs (old_i, old_j), both sorted by (i, j): one
     merge; a new pair not among the old ones starts without history."""
-    m, dim = new_i.size, xi.shape[1]
+    m, dim, width = new_i.size, xi.shape[1], sep.shape[1]
     new_xi = np.zeros((m, dim))
-    new_sep = np.zeros((m, dim))
+    new_sep = np.zeros((m, width))
     new_live = np.zeros(m, np.bool_)
     o = 0
     for p in range(m):
@@ -345,6 +378,7 @@ def carry(old_i, old_j, xi, sep, live, new_i, new_j):
             new_live[p] = True
             for c in range(dim):
                 new_xi[p, c] = xi[o, c]
+            for c in range(width):
                 new_sep[p, c] = sep[o, c]
     return new_xi, new_sep, new_live
 

@@ -73,38 +73,49 @@ class DemPartition(Partition):
         lat = model.lattice
         if lat.bending is not None:
             force = BeamBondForce(self, (conn, stiff), other, others, B, lat.break_strain,
-                                  lat.weibull, lat.shear)
+                                  lat.weibull, lat.shear, contact, model.mass)
             what = ""
             if lat.break_strain is not None:
                 ratio, friction = lat.shear
                 what = (f", breaking in tension beyond an outer-fibre strain of "
                         f"{lat.break_strain:g} or in shear beyond {ratio:g} x that (+ "
                         f"{friction:.3g} x compression){self._spread(force, lat)}")
-            ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
             self.built.append(f"{len(force.k)} beam bonds between rotating particles (axial, "
-                              f"shear, bending; current configuration){what}{ghosts}")
+                              f"shear, bending; current configuration){what}"
+                              f"{self._contact_words(contact, ' (turning the particles)')}"
+                              f"{self._ghost_words(force)}")
             return force
         force = BondForce(self, (conn, stiff), other, others, B, lat.break_strain,
                           contact, model.heat, model.mass, lat.weibull)
         strain = (f", breaking beyond strain {lat.break_strain:g}"
                   if lat.break_strain is not None else "")
-        strain += self._spread(force, lat)
-        if contact is not None:
-            law, zeta, mu = contact.law, contact.damping_ratio, contact.friction
-            dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \
-                (f", friction {mu:g}" if mu else "")
-            if contact.history:
-                dash += (f" on shear springs k_t = {contact.tangential_stiffness:.4g} k kept per "
-                         "pair (Cundall-Strack)")
-            elif mu:
-                dash += " (viscous, no shear history)"
-            strain += (f"; {law.name} contact of unbonded particles (radius {contact.radius:g} m, "
-                       f"stiffness {law.stiffness:g} {law.unit}{dash}, neighbour search with skin "
-                       f"{contact.skin:g} m)")
+        strain += self._spread(force, lat) + self._contact_words(contact)
+        self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
+                          f"{strain}{self._ghost_words(force)}")
+        return force
+
+    @staticmethod
+    def _contact_words(contact, turning="") -> str:
+        """The log's words on the particles' contact ("" without it)."""
+        if contact is None:
+            return ""
+        law, zeta, mu = contact.law, contact.damping_ratio, contact.friction
+        dash = (f", dashpot ratio {zeta:g}" if zeta else "") + \
+            (f", friction {mu:g}" if mu else "")
+        if contact.history:
+            dash += (f" on shear springs k_t = {contact.tangential_stiffness:.4g} k kept per "
+                     f"pair (Cundall-Strack){turning}")
+        elif mu:
+            dash += f" (viscous, no shear history){turning}"
+        return (f"; {law.name} contact of unbonded particles (radius {contact.radius:g} m, "
+                f"stiffness {law.stiffness:g} {law.unit}{dash}, neighbour search with skin "
+                f"{contact.skin:g} m)")
+
+    @staticmethod
+    def _ghost_words(force) -> str:
+        """The log's words on ghost and halo particles ("" without them)."""
         ghosts = f", {force.n_ghosts} ghost particles" if force.n_ghosts else ""
         if force.halo is not None:
             ghosts += (f", contact halo {force.n_halo} particles (those within 2r + skin of "
                        "its own, renewed with the search)")
-        self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
-                          f"{strain}{ghosts}")
-        return force
+        return ghosts

@@ -320,15 +320,25 @@ def check(scene, spec, model, held, n_owned=None):
 def with_contact(fr: Frequency, model, mass) -> Frequency:
     """``fr`` raised for particle contact (model.lattice.contact): lambda_max of
     the bonds plus 2 z k / m_min, z the largest coordination of spheres, k the
-    contact stiffness (hertz: its tangent at an overlap of 0.1 r)."""
+    contact stiffness (hertz: its tangent at an overlap of 0.1 r; rotating
+    particles: their shear springs' stiffness x (1 + r^2 m / I), the most for
+    any particle); ``mass``: the held DOFs' masses (inf: held still)."""
     contact = model.contact
     if contact is None:
         return fr
+    space = model.points.shape[1]
     m = np.asarray(mass, dtype=float)
+    spin = 0.0
+    if model.rotary is not None:          # rotating particles: (x, y, theta) per node
+        m = m.reshape(-1, model.dof)
+        both = np.isfinite(m[:, space]) & np.isfinite(m[:, 0]) & (m[:, space] > 0)
+        if both.any():
+            spin = contact.radius ** 2 * float(np.max(m[both, 0] / m[both, space]))
+        m = m[:, :space]
     m = m[np.isfinite(m) & (m > 0)]
     if not m.size:
         return fr
-    lam = fr.omega_max ** 2 + 2 * coordination(model.dof) * bound_stiffness(contact) / m.min()
+    lam = fr.omega_max ** 2 + 2 * coordination(space) * bound_stiffness(contact, spin) / m.min()
     return Frequency(float(np.sqrt(lam)), fr.method + " + contact bound")
 
 

@@ -372,10 +372,6 @@ class LatticeSpec:
             if self.kind != "random" or not BOND_GEOMETRIES[self.geometry].current:
                 fail(f"{path}.bond", "beam bonds join the particles of a random packing from "
                      "their current configuration: give kind: random and geometry: nonlinear")
-            for name in ("contact",):
-                if getattr(self, name) is not None:
-                    fail(f"{path}.{name}", "is not yet available with bond: beam (rotating "
-                         "particles are elastic: docs/reference/limits.md)")
         for name in ("shear_ratio", "friction_angle"):
             if getattr(self, name) is not None and (self.bond != "beam" or
                                                     self.break_strain is None):
