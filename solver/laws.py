@@ -140,7 +140,9 @@ class ContactSettings:
     viscous regularisation, or the dashpot beside the shear spring);
     ``history``: a tangential spring k_t = ``tangential_stiffness`` x the
     normal tangent stiffness with Coulomb sliding, kept per contact
-    (Cundall-Strack) instead of viscous friction alone."""
+    (Cundall-Strack) instead of viscous friction alone; ``rolling_friction``
+    mu_r: with rotating particles and shear springs, a rolling spring
+    k_r = k_t (radius / 2)^2 capped at mu_r (radius / 2) f_n (0: none)."""
 
     law: ContactLaw
     radius: float
@@ -150,6 +152,7 @@ class ContactSettings:
     tangential_damping_ratio: float = 0.5
     history: bool = False
     tangential_stiffness: float = 2.0 / 7.0
+    rolling_friction: float = 0.0
 
 
 @BOND_GEOMETRIES.register

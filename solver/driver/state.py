@@ -68,7 +68,8 @@ NEWER_KEYS = ((("analysis",), "dynamic"), (("gravity",), None), (("preload",), "
               (("model", "lattice", "strength"), "bond"),
               (("model", "lattice", "bond"), "central"),
               (("model", "lattice", "shear_ratio"), None),
-              (("model", "lattice", "friction_angle"), None))
+              (("model", "lattice", "friction_angle"), None),
+              (("model", "lattice", "contact", "rolling_friction"), None))
 
 
 def _drop_unset(section, path, unset):

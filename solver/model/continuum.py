@@ -386,7 +386,8 @@ def contact_of(lat):
                            damping_ratio=c.damping_ratio, friction=c.friction,
                            tangential_damping_ratio=c.tangential_damping_ratio,
                            history=c.friction_model == "history",
-                           tangential_stiffness=c.tangential_stiffness)
+                           tangential_stiffness=c.tangential_stiffness,
+                           rolling_friction=c.rolling_friction or 0.0)
 
 
 def _with_zone(scene, mesh, zone, cells, mass):

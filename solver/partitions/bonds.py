@@ -208,9 +208,10 @@ class BondForce(Force):
         return a_here | (~a_owned & b_here)
 
     def contact_history(self):
-        """The shear histories this piece counts, rows (a, b, xi, separation
-        [, sum of rotations]) oriented from the smaller global id a to b (a
-        checkpoint's), or None without them.  Right after a restore, before
+        """The shear histories this piece counts, rows (a, b, xi [, rolling
+        rotation phi], separation [, sum and difference of the rotations])
+        oriented from the smaller global id a to b (a checkpoint's), or None
+        without them.  Right after a restore, before
         the search is built again, they are the restored rows this piece
         counts."""
         if self.contact is None or not self.contact.history:
@@ -218,18 +219,19 @@ class BondForce(Force):
         keys, xi, sep = self.contact.table()
         a, b = keys // KEY, keys % KEY
         counted = self._counted(a, b)
-        return np.column_stack([a, b, xi.reshape(a.size, self.space),
-                                sep.reshape(a.size, self.dim)])[counted]
+        return np.column_stack([a, b, xi.reshape(a.size, self.dim),
+                                sep.reshape(a.size, self.dim + self.dim - self.space)])[counted]
 
     def restore_contacts(self, rows):
         """Shear histories of a checkpoint (rows of :meth:`contact_history`, all
         pieces'); they apply from the next force evaluation."""
         if self.contact is None or not self.contact.history:
             return
-        rows = np.asarray(rows, dtype=float).reshape(-1, 2 + self.space + self.dim)
+        turning = self.dim - self.space                 # rotating particles: 1
+        rows = np.asarray(rows, dtype=float).reshape(-1, 2 + 2 * self.dim + turning)
         a, b = rows[:, 0].astype(np.int64), rows[:, 1].astype(np.int64)
-        space = self.space
-        self.contact.restore(a * KEY + b, rows[:, 2:2 + space], rows[:, 2 + space:])
+        dim = self.dim
+        self.contact.restore(a * KEY + b, rows[:, 2:2 + dim], rows[:, 2 + dim:])
 
     # ---------------------------------------------------------------- state
     def bonds_at(self, node) -> np.ndarray:

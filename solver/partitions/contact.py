@@ -73,9 +73,14 @@ def bound_stiffness(contact, spin=0.0) -> float:
     contact's stiffness k n n^T + k_t (I - n n^T) has the norm max(k, k_t);
     ``spin``: the largest r^2 m / I of rotating particles, whose shear spring
     also turns them (its mass-weighted norm k_t (1/m_i + 1/m_j + l^2/I_i +
-    l^2/I_j), l <= r, is at most k_t (1 + spin) (1/m_i + 1/m_j))."""
+    l^2/I_j), l <= r, is at most k_t (1 + spin) (1/m_i + 1/m_j)); a rolling
+    spring k_r = k_t r^2 / 4 adds k_r (1/I_i + 1/I_j) <= k_t spin / 4 (1/m_i +
+    1/m_j)."""
     k = contact.law.bound(contact.radius)
-    return k * max(1.0, contact.tangential_stiffness * (1.0 + spin)) if contact.history else k
+    if not contact.history:
+        return k
+    turning = spin * (1.25 if contact.rolling_friction else 1.0)
+    return k * max(1.0, contact.tangential_stiffness * (1.0 + turning))
 
 
 class Contact:
@@ -107,6 +112,7 @@ class Contact:
         self.zeta_t = settings.tangential_damping_ratio
         self.history = settings.history
         self.ratio = settings.tangential_stiffness
+        self.rolling = settings.rolling_friction       # mu_r (0: no rolling resistance)
         self.mass = mass
         self.rotary = bool(rotary)        # (2D) u's last column: rotations, out's: torques
         self.ids, self.dt = ids, dt
@@ -127,6 +133,9 @@ class Contact:
         dim = rest.shape[1] if rest is not None else None
         if self.rotary and dim not in (2, None):
             raise ValueError("contact: rotating particles are 2D (one rotation each)")
+        if self.rolling and not (self.rotary and self.history):
+            raise ValueError("contact: rolling resistance needs rotating particles and shear "
+                             "springs (friction_model history)")
         self._code = KERNEL_LAWS.get(self.law.name) if compiled and dim in (2, 3, None) else None
         self.compiled = self._code is not None
         if self.compiled:      # lazy: numba (about 1 s to import) loads only with contact
@@ -227,7 +236,7 @@ class Contact:
         m = i.size
         self._forces, self._viscous = self._kern.LOOPS[dim]        # (2D and 3D only)
         none = np.zeros((0, dim))
-        xi, d, live = self._shear if self.history else (none, np.zeros((m, dim + self.rotary)),
+        xi, d, live = self._shear if self.history else (none, np.zeros((m, dim + 2 * self.rotary)),
                                                         np.zeros(0, bool))
         self._eval = dict(pi=np.ascontiguousarray(i), pj=np.ascontiguousarray(j),
                           bond=np.ascontiguousarray(bond) if with_bond.size else
@@ -248,7 +257,7 @@ class Contact:
             if at.size:
                 d, dist = e["d"][at, :self._dim], e["dist"][at]
                 f, k, _ = self.law.evaluate(2 * self.radius - dist)
-                shear = ((-self.ratio * k)[:, None] * e["xi"][at], e["sticks"][at]) \
+                shear = ((-self.ratio * k)[:, None] * e["xi"][at, :self._dim], e["sticks"][at]) \
                     if self.history else None
                 self._last = (e["pi"][at], e["pj"][at], d / dist[:, None], k, f, shear, d)
         return self._last
@@ -277,9 +286,11 @@ class Contact:
 
     def _oriented(self, sep, sign):
         """Separations ``sep`` turned to orientations ``sign`` (+-1 per pair); a
-        rotating pair's sum of rotations (the last column) is the same either way."""
-        flip = np.ones(sep.shape)
-        flip[:, :self._dim] = sign[:, None]
+        rotating pair's sum of rotations (the column after the separation) is
+        the same either way, their difference (the last) changes sign."""
+        flip = np.repeat(sign[:, None], sep.shape[1], axis=1)
+        if self.rotary:
+            flip[:, self._dim] = 1.0
         return sep * flip
 
     def restore(self, keys, xi, sep):
@@ -294,7 +305,8 @@ class Contact:
         """The new candidate pairs' histories from ``table`` (by global ids)."""
         keys, xi, sep = table
         i, j = self._mine[0], self._mine[1]
-        new_xi, new_sep = np.zeros((i.size, dim)), np.zeros((i.size, dim + self.rotary))
+        new_xi, new_sep = np.zeros((i.size, dim + self.rotary)), np.zeros((i.size,
+                                                                            dim + 2 * self.rotary))
         live = np.zeros(i.size, bool)
         if keys.size and i.size:
             mine, sign = self._global(i, j)
@@ -304,20 +316,23 @@ class Contact:
             new_sep[live] = self._oriented(sep[at[live]], sign[live])
         self._shear = (new_xi, new_sep, live)
 
-    def _spring(self, at, d, unit, k, fn, spin=None):
+    def _spring(self, at, d, unit, k, fn, turns=None):
         """The shear springs of the touching pairs ``at`` (indices into the
         pairs with an owned end) at separations ``d`` (rotating particles:
-        ``spin``, each pair's sum of rotations): their force on j, their
-        energy, whether each sticks, and the work of sliding (this piece's
-        share); the histories advance to this evaluation."""
+        ``turns``, each pair's sum and difference of rotations): their force
+        on j, their energy, whether each sticks, the work of sliding (this
+        piece's share) and the rolling springs' moments on j (None without);
+        the histories advance to this evaluation."""
         xi_all, sep_all, live_all = self._shear
         was = live_all[at]
         xi = np.where(was[:, None], xi_all[at], 0.0)
-        now = d if spin is None else np.column_stack([d, spin])
+        now = d if turns is None else np.column_stack([d, *turns])
         step = np.where(was[:, None], now - sep_all[at], 0.0)
-        if spin is not None:           # the contact point rolls by -l (dtheta_i + dtheta_j) t
-            roll = 0.5 * step[:, -1] * np.linalg.norm(d, axis=1)
-            step = step[:, :-1] - roll[:, None] * _tangent(unit)
+        dim = d.shape[1]
+        if turns is not None:          # the contact point rolls by -l (dtheta_i + dtheta_j) t
+            roll = 0.5 * step[:, dim] * np.linalg.norm(d, axis=1)
+            phi = xi[:, dim] + step[:, dim + 1] if self.rolling else np.zeros(len(at))
+            step, xi = step[:, :dim] - roll[:, None] * _tangent(unit), xi[:, :dim]
         length = np.linalg.norm(xi, axis=1)
         xi -= np.einsum("pc,pc->p", xi, unit)[:, None] * unit          # into the tangent plane
         turned = np.linalg.norm(xi, axis=1)
@@ -330,10 +345,20 @@ class Contact:
         shrink = np.where(slides, cap / np.where(slides, kt * length, 1.0), 1.0)
         lost = 0.5 * kt * length ** 2 * (1.0 - shrink ** 2)     # what the cap takes
         xi *= shrink[:, None]
+        held = 0.5 * kt * np.einsum("pc,pc->p", xi, xi)
+        moment = None
+        if turns is not None:          # the rolling spring k_r = k_t R*^2, at most mu_r R* f_n
+            kr, arm = 0.25 * self.radius ** 2 * kt, 0.5 * self.radius
+            most = self.rolling * arm * fn / np.where(kr > 0, kr, 1.0)
+            kept = np.clip(phi, -most, most)
+            lost = lost + 0.5 * kr * (phi ** 2 - kept ** 2)
+            held = held + 0.5 * kr * kept ** 2
+            moment = kr * kept
+            xi = np.column_stack([xi, kept])
         live_all[:] = False
         live_all[at] = True
         xi_all[at], sep_all[at] = xi, now
-        return -kt[:, None] * xi, 0.5 * kt * np.einsum("pc,pc->p", xi, xi), ~slides, lost
+        return -kt[:, None] * xi[:, :dim], held, ~slides, lost, moment
 
     def _let_go(self, at):
         """The last spring energy of the pairs that touched at the last
@@ -346,7 +371,10 @@ class Contact:
             return 0.0
         overlap = 2 * self.radius - np.linalg.norm(sep_all[gone, :self._dim], axis=1)
         _, k, _ = self.law.evaluate(np.maximum(overlap, 0.0))
-        held = 0.5 * self.ratio * k * np.einsum("pc,pc->p", xi_all[gone], xi_all[gone])
+        xi = xi_all[gone].copy()
+        if self.rotary:                            # the rolling spring: k_r = k_t R*^2
+            xi[:, -1] *= 0.5 * self.radius
+        held = 0.5 * self.ratio * k * np.einsum("pc,pc->p", xi, xi)
         return float(np.dot(held, self._share(self._mine[0][gone], self._mine[1][gone])))
 
     def _subset(self, at):
@@ -403,7 +431,8 @@ class Contact:
             self.energy, self._slipped = self._forces(
                 e["pi"], e["pj"], e["bond"], alive, e["rest"], u, self.radius, self._code,
                 self.law.stiffness, self.history, self.ratio, self.mu, e["xi"], e["live"],
-                e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned, self.rotary)
+                e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned, self.rotary,
+                self.rolling)
             self._fresh = True
             return
         i, j, d, dist, overlap, at = self._touching(u, alive)
@@ -419,14 +448,17 @@ class Contact:
         share = self._share(i, j)
         shear = None
         if self.history:
-            spin = u[i, -1] + u[j, -1] if self.rotary else None
-            spring, held, sticks, slipped = self._spring(at, d, unit, k, f, spin)
+            turns = (u[i, -1] + u[j, -1], u[i, -1] - u[j, -1]) if self.rotary else None
+            spring, held, sticks, slipped, moment = self._spring(at, d, unit, k, f, turns)
             force += spring
             energy = energy + held
             self._slipped = float(np.dot(slipped, share)) + let_go
             shear = (spring, sticks)
             if self.rotary:
                 self._torques(out, rows, i, j, d, spring)
+                for end, sign in ((i, -1.0), (j, 1.0)):      # the rolling springs' moments
+                    keep = end < rows
+                    out[:, -1] += sign * np.bincount(end[keep], moment[keep], minlength=rows)
         self.energy = float(np.dot(energy, share))
         self._last = (i, j, unit, k, f, shear, d)
         _scatter(out, rows, i, j, force)

@@ -38,7 +38,7 @@ def loops(dim: int):
 
     @numba.njit(cache=True, nogil=True, boundscheck=False)
     def contact_forces(pi, pj, bond, alive, rest, u, radius, law, stiff, history, ratio, mu, xi,
-                       live, touch, d, dist, sticks, out, rows, owned, rotary):
+                       live, touch, d, dist, sticks, out, rows, owned, rotary, rolling):
         """Add the contact forces of the candidate pairs (pi, pj), sorted by pi,
         at displacements ``u`` (positions X + u; ``rest``: X_j - X_i per pair, or
         an empty array when ``u`` holds positions; ``bond``: each pair's bond or
@@ -50,10 +50,15 @@ def loops(dim: int):
         call's; with ``history`` the shear displacements ``xi`` of the pairs
         ``live`` (touching at the last call) advance from it to this call.
         ``rotary`` (2D): column ``dim`` of ``u`` and ``out`` is each particle's
-        rotation and torque, column ``dim`` of ``d`` each pair's sum of
-        rotations at the last call; the contact point, half way between the
-        centres, rolls by -l (dtheta_i + dtheta_j) t (l = r / 2, t = z x n)
-        and the shear force's moment -l n x f acts on both particles."""
+        rotation and torque, columns ``dim`` and ``dim + 1`` of ``d`` each
+        pair's sum and difference theta_i - theta_j of rotations at the last
+        call; the contact point, half way between the centres, rolls by
+        -l (dtheta_i + dtheta_j) t (l = r / 2, t = z x n) and the shear force's
+        moment -l n x f acts on both particles.  With ``rolling`` mu_r > 0
+        (and ``history``) a rolling spring k_r = k_t R*^2 (R* = radius / 2) on
+        the relative rotation phi (column ``dim`` of ``xi``) since the contact
+        began turns i by -k_r phi and j by k_r phi, at most mu_r R* f_n
+        (beyond it rolls, the energy the cap takes dissipated)."""
         with_rest = rest.shape[0] > 0
         with_bonds = bond.shape[0] > 0
         energy = 0.0
@@ -72,11 +77,14 @@ def loops(dim: int):
                 cur = a
                 for c in range(width):
                     run[c] = 0.0
-            turned = 0.0
+            turned = twisted = 0.0
             if rotary:                             # the pair's rotations since the last call
                 spin = u[a, dim] + u[b, dim]
                 turned = spin - d[p, dim]
                 d[p, dim] = spin
+                twist = u[a, dim] - u[b, dim]
+                twisted = twist - d[p, dim + 1]
+                d[p, dim + 1] = twist
             s = 0.0
             for c in range(dim):
                 x = u[b, c] - u[a, c]
@@ -96,6 +104,8 @@ def loops(dim: int):
                     for c in range(dim):
                         r_old += (d[p, c] - step[c]) ** 2
                         held += xi[p, c] * xi[p, c]
+                    if rotary:                     # and the rolling spring's, k_r = k_t R*^2
+                        held += 0.25 * radius * radius * xi[p, dim] * xi[p, dim]
                     _, k_old, _ = _law(law, stiff, max(two_r - np.sqrt(r_old), 0.0))
                     share = 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0))
                     slipped += share * 0.5 * ratio * k_old * held
@@ -130,8 +140,10 @@ def loops(dim: int):
                         xi[p, 1] -= roll * d[p, 0]
                     for c in range(dim):
                         length2 += xi[p, c] * xi[p, c]
+                    if rolling > 0.0:
+                        xi[p, dim] += twisted
                 else:
-                    for c in range(dim):
+                    for c in range(xi.shape[1]):
                         xi[p, c] = 0.0
                 cap = mu * f
                 length = np.sqrt(length2)
@@ -142,6 +154,20 @@ def loops(dim: int):
                     slipped += share * 0.5 * kt * length * length * (1.0 - shrink * shrink)
                     length *= shrink
                 e += 0.5 * kt * length * length
+                if rolling > 0.0:              # the rolling spring, capped at mu_r R* f_n
+                    kr = 0.25 * radius * radius * kt
+                    phi = xi[p, dim]
+                    most = rolling * 0.5 * radius * f / kr
+                    if abs(phi) > most:
+                        kept = most if phi > 0.0 else -most
+                        slipped += share * 0.5 * kr * (phi * phi - most * most)
+                        phi = kept
+                        xi[p, dim] = phi
+                    e += 0.5 * kr * phi * phi
+                    moment = kr * phi          # -moment on i, +moment on j
+                    if b < rows:
+                        out[b, dim] += moment
+                    run[dim] -= moment
                 live[p] = True
             energy += share * e
             fr = f * inv

@@ -105,6 +105,9 @@ class DemPartition(Partition):
         if contact.history:
             dash += (f" on shear springs k_t = {contact.tangential_stiffness:.4g} k kept per "
                      f"pair (Cundall-Strack){turning}")
+            if contact.rolling_friction:
+                dash += (f", rolling resistance {contact.rolling_friction:g} on rolling springs "
+                         "k_r = k_t (r/2)^2")
         elif mu:
             dash += f" (viscous, no shear history){turning}"
         return (f"; {law.name} contact of unbonded particles (radius {contact.radius:g} m, "

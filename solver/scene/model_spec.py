@@ -251,12 +251,20 @@ class ContactSpec:
     tangential_damping_ratio: float = key(
         "zeta_t of the tangential dashpot (friction > 0): the viscous friction's "
         "regularisation, or the dashpot beside the history spring", 0.5, nonnegative=True)
+    rolling_friction: float | None = key(
+        "rolling resistance mu_r of rotating particles (bond: beam, friction_model history): "
+        "a rolling spring k_r = k_t R*^2 (R* = radius / 2) on the pair's relative rotation "
+        "since the contact began, its moment at most mu_r R* f_n (beyond it the pair rolls, "
+        "the energy the cap takes dissipated); default none", None, positive=True)
     radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
                                "neighbours just touch at rest)", None, positive=True)
     skin: float | None = key("neighbour-list skin [m]: the pair search is rebuilt when a particle "
                              "has moved half of it; default 0.3 x radius", None, positive=True)
 
     def validate(self, path):
+        if self.rolling_friction is not None and self.friction_model != "history":
+            fail(f"{path}.rolling_friction", "is a spring kept per contact beside the shear "
+                 "spring: give friction_model: history")
         if self.friction_model == "history" and not self.friction:
             fail(f"{path}.friction_model", "history is the sticking and sliding of friction: "
                  "give friction > 0")
@@ -372,6 +380,10 @@ class LatticeSpec:
             if self.kind != "random" or not BOND_GEOMETRIES[self.geometry].current:
                 fail(f"{path}.bond", "beam bonds join the particles of a random packing from "
                      "their current configuration: give kind: random and geometry: nonlinear")
+        if self.contact is not None and self.contact.rolling_friction is not None and \
+                self.bond != "beam":
+            fail(f"{path}.contact.rolling_friction", "resists the rolling of rotating "
+                 "particles: give bond: beam")
         for name in ("shear_ratio", "friction_angle"):
             if getattr(self, name) is not None and (self.bond != "beam" or
                                                     self.break_strain is None):
