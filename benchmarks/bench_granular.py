@@ -19,7 +19,7 @@ rebuilt when a sphere has moved half of it; NVE, h = 0.02 / sqrt(k_n).
   tested against;
 - LAMMPS: ``pair_style gran/hooke/history 2e5 NULL 0 NULL 0.5 0`` (the same
   law: k_t = 2/7 k_n by default, no damping), ``fix nve`` (the spheres do
-  not rotate, as ours have no rotation yet; LAMMPS still computes the
+  not rotate: ours turn only with beam bonds; LAMMPS still computes the
   torques), the same positions and velocities from a data file.
 
 Reported: atom-steps/s and ns per candidate pair of each, their ratios to

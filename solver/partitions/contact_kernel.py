@@ -8,10 +8,12 @@ over arrays of pairs: here each pair is read once and its force added to its
 two rows (rows >= ``rows`` are not this piece's; the pairs come sorted by
 their first particle, whose sum over its run stays in a buffer).  What later
 calls need of the evaluation is kept per candidate pair and no more: whether
-it touches, its separation d = x_j - x_i (which is also the last separation
-the shear history advances from), its distance and whether its shear spring
-sticks; the normal force and stiffness and the spring's force are
-recomputed from them.
+it touches and, if it does, its separation d = x_j - x_i (which is also the
+last separation the shear history advances from; rotating particles: and
+the pair's sum and difference of rotations), its distance and whether its
+shear spring sticks; the normal force and stiffness and the spring's force
+are recomputed from them.  The search (:func:`pairs_within`) is a cell list
+with a half stencil.
 ``law``: 0 linear (f = s d), 1 hertz (f = s d^1.5): the codes of
 :data:`solver.partitions.contact.KERNEL_LAWS`; see solver.laws.
 benchmarks/bench_granular.py measures both paths against LAMMPS.
@@ -46,9 +48,10 @@ def loops(dim: int):
         dissipated by the shear springs: the energy the Coulomb cap takes from
         a sliding spring and the last energy of one that lets go), this
         piece's shares (half per end below ``owned``).
-        ``d`` holds each pair's separation of the last call and receives this
-        call's; with ``history`` the shear displacements ``xi`` of the pairs
-        ``live`` (touching at the last call) advance from it to this call.
+        ``d`` holds each touching pair's separation of the last call and
+        receives this call's (a pair that does not touch keeps its last); with
+        ``history`` the shear displacements ``xi`` of the pairs ``live``
+        (touching at the last call) advance from it to this call.
         ``rotary`` (2D): column ``dim`` of ``u`` and ``out`` is each particle's
         rotation and torque, columns ``dim`` and ``dim + 1`` of ``d`` each
         pair's sum and difference theta_i - theta_j of rotations at the last
@@ -77,32 +80,24 @@ def loops(dim: int):
                 cur = a
                 for c in range(width):
                     run[c] = 0.0
-            turned = twisted = 0.0
-            if rotary:                             # the pair's rotations since the last call
-                spin = u[a, dim] + u[b, dim]
-                turned = spin - d[p, dim]
-                d[p, dim] = spin
-                twist = u[a, dim] - u[b, dim]
-                twisted = twist - d[p, dim + 1]
-                d[p, dim + 1] = twist
             s = 0.0
             for c in range(dim):
                 x = u[b, c] - u[a, c]
                 if with_rest:
                     x += rest[p, c]
-                step[c] = x - d[p, c]              # the change since the last call
-                d[p, c] = x
+                step[c] = x
                 s += x * x
-            r = np.sqrt(s)
+            apart = s >= two_r * two_r             # (no root for the pairs apart)
+            r = 0.0 if apart else np.sqrt(s)
             overlap = two_r - r
-            if overlap <= 0.0 or r <= 0.0 or (with_bonds and bond[p] >= 0 and alive[bond[p]]):
-                touch[p] = False
+            if apart or r <= 0.0 or (with_bonds and bond[p] >= 0 and alive[bond[p]]):
+                touch[p] = False               # (d keeps the pair's last touching state)
                 if history and live[p]:        # the spring's last energy is let go
                     live[p] = False
                     r_old = 0.0
                     held = 0.0
                     for c in range(dim):
-                        r_old += (d[p, c] - step[c]) ** 2
+                        r_old += d[p, c] * d[p, c]
                         held += xi[p, c] * xi[p, c]
                     if rotary:                     # and the rolling spring's, k_r = k_t R*^2
                         held += 0.25 * radius * radius * xi[p, dim] * xi[p, dim]
@@ -112,6 +107,18 @@ def loops(dim: int):
                 continue
             touch[p] = True
             dist[p] = r
+            for c in range(dim):               # the change since the last call (if it touched)
+                x = step[c]
+                step[c] = x - d[p, c]
+                d[p, c] = x
+            turned = twisted = 0.0
+            if rotary:                         # the pair's rotations since the last call
+                spin = u[a, dim] + u[b, dim]
+                turned = spin - d[p, dim]
+                d[p, dim] = spin
+                twist = u[a, dim] - u[b, dim]
+                twisted = twist - d[p, dim + 1]
+                d[p, dim + 1] = twist
             inv = 1.0 / r
             f, kp, e = _law(law, stiff, overlap)
             share = 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0))
@@ -272,8 +279,10 @@ LOOPS = {2: loops(2), 3: loops(3)}
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
 def _cells(x, reach):
-    """Cells of side >= ``reach`` over the points ``x``: (cell of each point,
-    first point of each cell in ``order``, the points by cell, cells per axis)."""
+    """Cells of side >= ``reach`` over the points ``x``, with a layer of empty
+    cells around them (a neighbour of an occupied cell is always a cell):
+    (cell of each point, first point of each cell in ``order``, the points
+    by cell, cells per axis)."""
     n, dim = x.shape
     lo = np.empty(dim)
     hi = np.empty(dim)
@@ -288,12 +297,12 @@ def _cells(x, reach):
         side *= (total / (4.0 * n + 64.0)) ** (1.0 / dim)
     shape = np.empty(dim, np.int64)
     for c in range(dim):
-        shape[c] = int((hi[c] - lo[c]) / side) + 1
+        shape[c] = int((hi[c] - lo[c]) / side) + 3
     cell = np.empty(n, np.int64)
     for p in range(n):
         at = 0
         for c in range(dim):
-            at = at * shape[c] + min(int((x[p, c] - lo[c]) / side), shape[c] - 1)
+            at = at * shape[c] + min(int((x[p, c] - lo[c]) / side), shape[c] - 3) + 1
         cell[p] = at
     n_cells = 1
     for c in range(dim):
@@ -311,66 +320,77 @@ def _cells(x, reach):
     return cell, start, order, shape
 
 
+def _ahead(shape):
+    """The index steps to a cell's own cell and the (3^dim - 1) / 2 neighbour
+    cells ahead of it (first nonzero offset +1) in the grid of ``shape``."""
+    dim = len(shape)
+    stride = np.cumprod(np.concatenate([[1], np.asarray(shape[1:], np.int64)[::-1]]))[::-1]
+    offsets = np.stack(np.meshgrid(*([np.arange(-1, 2)] * dim), indexing="ij"), -1)
+    offsets = offsets.reshape(-1, dim)
+    lead = np.array([o[np.flatnonzero(o)[0]] if o.any() else 0 for o in offsets])
+    return np.concatenate([[0], offsets[lead > 0] @ stride]).astype(np.int64)
+
+
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _scan(x, xs, reach, cell, start, order, shape):
-    """The pairs (p, q), p < q, of points within ``reach``, by p, then q: each
-    point looks into its cell and the 3^dim - 1 around it (``xs``: the points
-    in cell order, read there); the buffer doubles when it fills."""
-    n, dim = x.shape
+def _near(xs, reach, start, order, delta, found):
+    """The pairs of points within ``reach`` into ``found`` (smaller index
+    first), each met once: each cell's points against the later points of
+    their cell and every point of the cells ``delta`` ahead of it (a half
+    stencil; the empty layer of :func:`_cells` keeps every neighbour
+    inside), read in cell order (``xs``: the points by cell).  Returns their
+    count, or -1 when ``found`` is too small."""
+    dim = xs.shape[1]
     r2 = reach * reach
-    stride = np.ones(dim, np.int64)
-    for c in range(dim - 2, -1, -1):
-        stride[c] = stride[c + 1] * shape[c + 1]
-    steps = np.empty((3 ** dim, dim), np.int64)          # the neighbour cells' offsets
-    for offset in range(3 ** dim):
-        o = offset
-        for c in range(dim):
-            steps[offset, c] = o % 3 - 1
-            o //= 3
-    coord = np.empty(dim, np.int64)
-    pairs = np.empty((4 * n + 16, 2), np.int64)
     k = 0
+    for cell in range(start.size - 1):
+        lo, hi = start[cell], start[cell + 1]
+        if lo == hi:
+            continue
+        for side in range(delta.size):
+            other = cell + delta[side]
+            o_lo, o_hi = start[other], start[other + 1]
+            for s in range(lo, hi):
+                for t in range(s + 1 if side == 0 else o_lo, o_hi):
+                    d2 = 0.0
+                    for c in range(dim):
+                        e = xs[t, c] - xs[s, c]
+                        d2 += e * e
+                    if d2 <= r2:
+                        if k == found.shape[0]:
+                            return -1
+                        p, q = order[s], order[t]
+                        found[k, 0] = min(p, q)
+                        found[k, 1] = max(p, q)
+                        k += 1
+    return k
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def _by_first(found, n):
+    """The pairs ``found`` sorted by their first point, then their second: a
+    counting sort by the first, each one's partners put in order."""
+    k = found.shape[0]
+    first = np.zeros(n + 1, np.int64)
+    for a in range(k):
+        first[found[a, 0] + 1] += 1
     for p in range(n):
-        rest = cell[p]
-        for c in range(dim):
-            coord[c] = rest // stride[c]
-            rest -= coord[c] * stride[c]
-        first = k
-        for offset in range(3 ** dim):
-            at = 0
-            inside = True
-            for c in range(dim):
-                q = coord[c] + steps[offset, c]
-                if q < 0 or q >= shape[c]:
-                    inside = False
-                    break
-                at += q * stride[c]
-            if not inside:
-                continue
-            for s in range(start[at], start[at + 1]):
-                q = order[s]
-                if q <= p:
-                    continue
-                d2 = 0.0
-                for c in range(dim):
-                    t = xs[s, c] - x[p, c]
-                    d2 += t * t
-                if d2 <= r2:
-                    if k == pairs.shape[0]:
-                        grown = np.empty((2 * k, 2), np.int64)
-                        grown[:k] = pairs
-                        pairs = grown
-                    pairs[k, 0] = p
-                    pairs[k, 1] = q
-                    k += 1
-        for a in range(first + 1, k):          # this point's partners in order
+        first[p + 1] += first[p]
+    fill = first[:-1].copy()
+    pairs = np.empty((k, 2), np.int64)
+    for a in range(k):
+        p = found[a, 0]
+        pairs[fill[p], 0] = p
+        pairs[fill[p], 1] = found[a, 1]
+        fill[p] += 1
+    for p in range(n):
+        for a in range(first[p] + 1, first[p + 1]):
             q = pairs[a, 1]
             b = a - 1
-            while b >= first and pairs[b, 1] > q:
+            while b >= first[p] and pairs[b, 1] > q:
                 pairs[b + 1, 1] = pairs[b, 1]
                 b -= 1
             pairs[b + 1, 1] = q
-    return pairs[:k].copy()
+    return pairs
 
 
 def pairs_within(x, reach):
@@ -382,8 +402,12 @@ def pairs_within(x, reach):
         return np.zeros((0, 2), np.int64)
     if not np.all(np.isfinite(x)):                 # (as the k-d tree refuses them)
         raise ValueError("contact search: particle positions are not finite")
-    cell, start, order, shape = _cells(x, reach)
-    return _scan(x, x[order], reach, cell, start, order, shape)
+    _, start, order, shape = _cells(x, reach)
+    xs, delta = x[order], _ahead(shape)
+    found = np.empty((4 * len(x) + 16, 2), np.int64)
+    while (k := _near(xs, reach, start, order, delta, found)) < 0:
+        found = np.empty((2 * len(found), 2), np.int64)    # a dense cluster: room and again
+    return _by_first(found[:k], len(x))
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
