@@ -77,10 +77,10 @@ def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(
     """The pulse breaks the beam-bonded core (break_strain 7e-4 of the outer
     fibre, shear_ratio 0.1): beams break in both modes (measured by 42 us:
     84 in tension, 129 in shear from 31.8 us), each recorded strain beyond its
-    limit; the released energy is the sum of the recorded energies and the
-    energy audit closes to 3e-3 (measured 1.6e-3: the energy a bond held at
-    the evaluation that found it broken, counted in full, and the friction's
-    work per step, both first order in the step).  Fragments touch (contact
+    limit; the released energy is the sum of the recorded energies (each
+    the mean of the beam's energy at the evaluation that found it broken and
+    at the one before) and the energy audit closes to 1e-3 (measured 4.0e-4,
+    1.6e-3 with the later energy alone).  Fragments touch (contact
     with friction 0.5 on shear springs that turn the particles, rolling
     resistance 0.1): friction dissipates (measured 8.9e-4 of the work).  Stopped while breaking with a contact live (its shear
     history and the pair's rotations in the checkpoint) and restarted on 2
@@ -115,7 +115,7 @@ def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(
     assert released == pytest.approx(b[:, 7].sum(), rel=1e-12)
     W = e["external_work"]
     audit = abs(e["kinetic"][-1] + e["strain"][-1] + e["dissipated"][-1] + released - W[-1])
-    assert audit < 3e-3 * W.max(), audit / W.max()
+    assert audit < 1e-3 * W.max(), audit / W.max()
     b2, u2, released2, _ = got["short"]
     assert np.array_equal(b2[:, [0, 6, 8, 9]], b[:, [0, 6, 8, 9]])
     assert released2 == pytest.approx(released, rel=1e-9)

@@ -104,14 +104,17 @@ def test_bonds_break_when_the_tension_pulse_arrives_and_the_energy_adds_up(tmp_p
     e = res.energy
     released = res.partitions["dem"]["released_energy"]
     work = e["external_work"][-1]
-    assert released > 0
-    assert abs(e["total"][-1] + released - work) < 1e-3 * work
+    assert released > 0      # each bond's energy at its break: the mean of its last two
+    # evaluations' (measured 4.0e-5; 2.2e-4 with the later one's alone)
+    assert abs(e["total"][-1] + released - work) < 1e-4 * work
 
 
 def test_the_energy_audit_of_a_damped_breaking_run_closes(tmp_path):
     """The same pulse with Rayleigh damping (alpha 2e4 1/s, beta 5e-9 s): kinetic +
-    strain + released + dissipated = external work to 1e-3 of the work, with
-    the dissipation a sizeable share (the audit would miss it by > 1 %)."""
+    strain + released + dissipated = external work to 1.5e-4 of the work
+    (measured 9.7e-5; 2.0e-4 when a broken bond released its later energy
+    alone), with the dissipation a sizeable share (the audit would miss it
+    by > 1 %)."""
     raw = nonlinear(model__lattice__break_strain=3e-4, partitions__0__ratio=1,
                     damping__beta=5e-9, damping__alpha=2e4)
     raw["loads"][0]["direction"] = [-1.0, 0.0]
@@ -121,7 +124,7 @@ def test_the_energy_audit_of_a_damped_breaking_run_closes(tmp_path):
     released = res.partitions["dem"]["released_energy"]
     work = e["external_work"][-1]
     assert released > 0 and e["dissipated"][-1] > 0.01 * work
-    assert abs(e["total"][-1] + released + e["dissipated"][-1] - work) < 1e-3 * work
+    assert abs(e["total"][-1] + released + e["dissipated"][-1] - work) < 1.5e-4 * work
 
 
 def closing_crack_cli(tmp_path, n, dem_ranks=None):
@@ -309,7 +312,7 @@ def test_the_compiled_bond_loop_matches_the_numpy_reference(tmp_path):
     out = []
     for evaluate in (f.internal, f.reference_internal):
         f.alive[:] = True
-        f.broken, f.released = [], 0.0
+        f.broken, f.released, f._u_last = [], 0.0, None      # (no earlier evaluation)
         evaluate(dem.u, dem.r)
         out.append((dem.R.copy(), f.alive.copy(), np.array(f.broken), f.released))
     (a, alive_a, rows_a, rel_a), (b, alive_b, rows_b, rel_b) = out

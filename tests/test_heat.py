@@ -57,26 +57,40 @@ def heated(raw):
     return raw
 
 
+def beams(raw):
+    """``raw`` with a random packing of rotating particles joined by beams."""
+    raw["model"]["material"]["nu"] = 0.25
+    raw["model"]["lattice"].update(kind="random", geometry="nonlinear", bond="beam")
+    return raw
+
+
 @pytest.mark.parametrize("scene, geometry", [("wave_bar_transition", "linear"),
                                              ("wave_bar_transition", "nonlinear"),
+                                             ("wave_bar_transition", "beam"),
                                              ("wave_bar", "linear"), ("wave_bar", "nonlinear")])
 def test_free_thermal_expansion_is_stress_free(scene, geometry, tmp_path):
     """u = alpha dT (X - X_c) at a uniform dT: FE cells, bonds carried to the
     transition band, overlap cells and lattice bonds (small-strain or
-    current-configuration) all balance to round-off (1e-9 of the thermal
-    forces)."""
+    current-configuration; beams between rotating particles, which do not
+    turn, and the beams carried to the band, whose FE cells carry three DOFs
+    per node) all balance to round-off (1e-9 of the thermal forces)."""
     raw = heated(raw_scene(scene))
-    raw["model"]["lattice"]["geometry"] = geometry
+    if geometry == "beam":
+        raw = beams(raw)
+    else:
+        raw["model"]["lattice"]["geometry"] = geometry
     asm = built(raw, tmp_path)
     T = np.full(asm.model.n_nodes, 293.0 + DT)
     for p in asm.parts:
         p.set_temperature(T, count=False)
         X = asm.model.points[p.layout.held]
-        p.U[:] = (ALPHA * DT * (X - X.mean(axis=0))).ravel()
+        free = np.zeros((len(X), p.U.size // len(X)))         # rotations: none
+        free[:, :X.shape[1]] = ALPHA * DT * (X - X.mean(axis=0))
+        p.U[:] = free.ravel()
         p.residual(0.0, p.u, None)
         n = p.n_own
         forces = np.abs(p.thermal.force[:n]).max() if p.thermal is not None else 0.0
-        if p.method == "dem" and geometry == "nonlinear":       # the bonds' own expansion
+        if p.method == "dem" and geometry != "linear":          # the bonds' own expansion
             f = p.force
             forces = max(forces, (f.k * f.L_cold).max() * ALPHA * DT)
         assert forces > 1.0 and np.abs(p.R[:n]).max() < 1e-9 * forces
@@ -167,6 +181,39 @@ def test_heated_bonds_weaken_and_break_with_their_temperature(tmp_path):
     rows = np.array(f.broken)
     assert rows.shape[1] == 8 and np.allclose(rows[:, 3], 1e-4, rtol=1e-6)
     assert np.allclose(rows[:, 4], 7.5e-5) and np.allclose(rows[:, 5], 468.0)
+    asm.destroy()
+
+
+def test_heated_beams_rest_longer_weaken_and_break_with_their_temperature(tmp_path):
+    """Beams between rotating particles at T = 293 + 0.25 x 700 K (melting
+    993 K, break_strain 1e-4, shear_ratio 0.5): their rest lengths grow by
+    alpha dT, their tensile and shear strengths fall to 7.5e-5 and 3.75e-5;
+    expanded freely and stretched by 1e-4 along x, exactly the beams whose outer fibre or shear
+    strain exceeds the weakened strength break, some of them below the cold
+    strength, each recorded with its temperature."""
+    raw = beams(heated(raw_scene("wave_bar_transition")))
+    raw["model"]["lattice"].update(break_strain=1e-4, shear_ratio=0.5)
+    raw["heat"]["melting"] = 993.0
+    asm = built(raw, tmp_path)
+    dem = next(p for p in asm.parts if p.method == "dem")
+    f = dem.force
+    cold = f.beams.L0.copy()
+    T = np.full(asm.model.n_nodes, 293.0 + 0.25 * 700.0)
+    dem.set_temperature(T, count=False)
+    assert np.allclose(f.beams.L0, cold * (1 + ALPHA * 175.0), rtol=1e-14)
+    assert np.allclose(f.beams.tension, 7.5e-5) and np.allclose(f.beams.shear, 3.75e-5)
+    X = f.X[:f.n_held]
+    q = np.zeros((f.n_held, 3))
+    q[:, :2] = ALPHA * 175.0 * (X - X.mean(axis=0))              # the free expansion, then
+    q[:, 0] += 1e-4 * X[:, 0]                                    # the stretch
+    dem.U[:] = q.ravel()
+    dem.residual(0.0, dem.u, None)
+    fibre, slip, tension, shear = f.beams.failure(q[:, :2], q[:, 2])
+    beyond = (fibre > tension) | (slip > shear)
+    assert beyond.any() and np.array_equal(~f.alive, beyond)
+    assert (fibre[beyond] < 1e-4).any()                         # weakened by the heat
+    rows = np.array(f.broken)
+    assert len(rows) == beyond.sum() and np.allclose(rows[:, 5], 468.0)
     asm.destroy()
 
 

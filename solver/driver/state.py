@@ -114,8 +114,9 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
     local = []
     for p in parts:
         n = p.n_own
+        released = p.force.released if p.force.bonded else 0.0
         local.append((p.name, p.layout.owned, p.state[:, :n].copy(),
-                      np.array([p.work, p.dissipated]), p.steps,
+                      np.array([p.work, p.dissipated, released]), p.steps,
                       p.load_memory(), list(p.force.broken), p.force.contact_history()))
     chunks = comm.gather(local, root=0) if comm.size > 1 else [local]
     if comm.rank != 0:
@@ -123,7 +124,7 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
     merged: dict = {}
     for chunk in chunks:
         for name, nodes, uva, work, steps, loads, broken, contacts in chunk:
-            m = merged.setdefault(name, {"nodes": [], "uva": [], "work": np.zeros(2), "steps": steps,
+            m = merged.setdefault(name, {"nodes": [], "uva": [], "work": np.zeros(3), "steps": steps,
                                          "loads": {}, "broken": [], "contacts": []})
             m["nodes"].append(nodes)
             m["uva"].append(uva.reshape(3, nodes.size, -1))
@@ -166,13 +167,15 @@ def restore(data: dict, parts, scheme, guard):
         p.steps = int(saved["steps"])
         # the work of a partition on several ranks is summed over its pieces:
         # keep it on the first one
-        work = np.atleast_1d(np.asarray(saved["work"], dtype=float))   # external, dissipated
+        work = np.atleast_1d(np.asarray(saved["work"], dtype=float))   # external, dissipated, released
         first = p.layout.piece == 0
         p.work = float(work[0]) if first else 0.0
         p.dissipated = float(work[1]) if first and work.size > 1 else 0.0
         p.restore_load_memory(dict(zip(saved["load_keys"].tolist(),
                                        saved["load_values"].tolist())))
         p.force.restore_broken(saved["broken"])
+        if work.size > 2 and p.force.bonded:      # (older checkpoints: from the rows)
+            p.force.released = float(work[2]) if first else 0.0
         p.force.restore_contacts(saved.get("contacts", ()))
     scheme.synchronise()
     scheme.restore_memory(data.get("scheme") or {})

@@ -15,8 +15,11 @@ one MatMult.  With ``model.lattice.break_strain`` a beam breaks in tension
 (:meth:`BeamBonds.breakable`).  With ``model.lattice.contact`` particles
 that share no live beam touch as in :mod:`solver.partitions.contact`, whose
 shear springs and friction then also turn them (the contact point rolls
-with their rotations; the tangential force's moment acts on both).  Beams
-do not heat yet (the scene refuses heat with them).
+with their rotations; the tangential force's moment acts on both).  With
+``heat`` a beam at temperature T (its ends' mean) rests at the length
+L0 (1 + alpha (T - T0)) (its rest angle and bending unchanged), and with
+``heat.melting`` its tensile and shear strengths fall with T as the
+central bonds' (:mod:`solver.partitions.bonds`).
 """
 from __future__ import annotations
 
@@ -33,9 +36,9 @@ class BeamBondForce(BondForce):
     the particles' contact settings (``node_mass``: the model's masses)."""
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain=None,
-                 weibull=None, shear=None, contact=None, node_mass=None):
+                 weibull=None, shear=None, contact=None, node_mass=None, heat=None):
         super().__init__(part, lattice_block, linear_op, other_blocks, tangent, break_strain,
-                         contact, None, node_mass, weibull)
+                         contact, heat, node_mass, weibull)
         # lazy: numba loads only when a partition with beam bonds is built
         from solver.partitions.beam_bond_kernel import beam_forces
         self._beam_forces = beam_forces
@@ -44,13 +47,26 @@ class BeamBondForce(BondForce):
         k_b = stiff.k_b[[at[(int(a), int(b))] for a, b in self.nodes.tolist()]]
         self.beams = BeamBonds(self.i, self.j, self.dX, self.k, k_b)
         self.beams.alive = self.alive                    # one mask: breaks, damage, energy
+        self._shear_ratio = 1.0
         if break_strain is not None:
             ratio, friction = shear
+            self._shear_ratio = ratio
             self.beams.breakable(self.limit, ratio * self.limit, friction)
         self._mode = np.zeros(len(self.k), np.int64)
 
     def separations(self, u, bonds=slice(None)):
         return self.dX[bonds] + (u[self.j[bonds], :2] - u[self.i[bonds], :2])
+
+    def set_temperature(self, T_node, count=True) -> float:
+        """The beams' rest lengths and strengths at the model nodes'
+        temperatures ``T_node`` (see :meth:`BondForce.set_temperature`; the
+        bending energy does not change with the rest length)."""
+        work = super().set_temperature(T_node, count)
+        self.beams.L0[:] = self.L0
+        if self.break_strain is not None:
+            self.beams.tension[:] = self.limit
+            self.beams.shear[:] = self._shear_ratio * self.limit
+        return work
 
     def internal(self, u_vec, out_vec):
         """out = f_int(u): forces and torques of the beams (compiled loop; a
@@ -64,27 +80,29 @@ class BeamBondForce(BondForce):
                                     self._snapped, self._mode)
         if snapped:
             self._break_beams(self._snapped[:snapped].copy(), self._mode[:snapped].copy(), q)
+        self._remember(q)
         if self.contact is not None:
             self._add_contact(u_vec, q, out)
 
     def _break_beams(self, which, mode, q):
         """Record beams ``which`` as broken at ``q`` in ``mode`` (1 tension, 2
         shear): time, midpoint, the strain that broke it (the outer fibre's,
-        or |V| / (E_b A)) and its limit, temperature (NaN), mode, the energy it
-        held, particles.  The energy counts once: on the piece owning its
+        or |V| / (E_b A)) and its limit, temperature (NaN without heat), mode, the energy it
+        released (the mean of this evaluation's and the last one's), particles.  The energy counts once: on the piece owning its
         first particle."""
         sub = self.beams.subset(which)
         fibre, slip, t_limit, s_limit = sub.failure(q[:, :2], q[:, 2])
         shear = mode == 2
         strain, limit = np.where(shear, slip, fibre), np.where(shear, s_limit, t_limit)
-        energy = sub.energies(q[:, :2], q[:, 2])
+        energy = self._released(sub.energies(q[:, :2], q[:, 2]),
+                                lambda v: sub.energies(v[:, :2], v[:, 2]))
         i, j = self.i[which], self.j[which]
         mid = 0.5 * ((self.X[i] + self.X[j]) + (q[i, :2] + q[j, :2]))
         first = i < self.part.layout.n_owned
         self.released += float(energy[first].sum())
+        temp = self.T[which] if self.T is not None else np.full(which.size, np.nan)
         for w, row in zip(which[first].tolist(),
-                          np.column_stack([mid, strain, limit, np.full(which.size, np.nan),
-                                           mode, energy])[first].tolist()):
+                          np.column_stack([mid, strain, limit, temp, mode, energy])[first].tolist()):
             self.broken.append((self.now, *row, int(self.nodes[w, 0]), int(self.nodes[w, 1])))
 
     def restore_broken(self, rows):
@@ -107,6 +125,7 @@ class BeamBondForce(BondForce):
         nothing breaks here)."""
         q, n = self.displacements(u_vec), self.n_held
         force, torque = self.beams.forces(q[:, :2], q[:, 2])
+        self._remember(q)
         out = np.column_stack([force, torque])[:n]
         if self.contact is not None:
             self._add_contact(u_vec, q, out)

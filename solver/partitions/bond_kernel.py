@@ -110,8 +110,9 @@ def bond_forces(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, accumulate
 @numba.njit(cache=True, nogil=True, boundscheck=False)
 def rest_length_work(dX, u, i, j, k, L0_old, L0_new, alive, share) -> float:
     """sum over live bonds of share_b 1/2 k ((L - L0_new)^2 - (L - L0_old)^2): the
-    change of strain energy when rest lengths change at displacements ``u``."""
-    dim = u.shape[1]
+    change of strain energy when rest lengths change at displacements ``u``
+    (rotating particles: its translations)."""
+    dim = dX.shape[1]
     total = 0.0
     for b in range(i.size):
         if not alive[b] or share[b] == 0.0:

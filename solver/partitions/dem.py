@@ -73,7 +73,7 @@ class DemPartition(Partition):
         lat = model.lattice
         if lat.bending is not None:
             force = BeamBondForce(self, (conn, stiff), other, others, B, lat.break_strain,
-                                  lat.weibull, lat.shear, contact, model.mass)
+                                  lat.weibull, lat.shear, contact, model.mass, model.heat)
             what = ""
             if lat.break_strain is not None:
                 ratio, friction = lat.shear

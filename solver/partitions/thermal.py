@@ -5,7 +5,8 @@ nodes') wants the free expansion u = alpha dT_e (X - X_c): every strain
 component alpha dT_e, no rotation.  Its thermal force is the elastic force of
 that field, f_e = alpha dT_e K_e (X_e - X_c), which for a cell is the
 integral of B^T D eps_th and for a bond k g g^T is k alpha dT L0 along the bond
-(the bond's rest length grown).  So a body expanding freely (u = alpha dT X)
+(the bond's rest length grown); nodes with rotations (beam models: every
+node has three DOFs) do not turn in it.  So a body expanding freely (u = alpha dT X)
 carries no stress, and a fixed one the exact thermal stress.  The forces are
 linear in the nodal temperatures: one sparse matrix G [held DOFs x model
 nodes] assembled once with PETSc's COO insertion, then f_th = alpha G dT (one
@@ -34,6 +35,8 @@ class ThermalForce:
                 Ke = stiff[np.arange(s, s + len(c))]
                 X = points[c]
                 X = X - X.mean(axis=1, keepdims=True)
+                if dim > X.shape[2]:                  # rotations: none in a free expansion
+                    X = np.concatenate([X, np.zeros(X.shape[:2] + (dim - X.shape[2],))], axis=2)
                 a = np.einsum("eij,ej->ei", Ke, X.reshape(len(c), -1)) / c.shape[1]
                 loc = lay.local(c.ravel()).reshape(c.shape)           # -1: not held here
                 dof = (part.starts[np.maximum(loc, 0)][:, :, None] + np.arange(dim)).reshape(len(c), -1)

@@ -599,8 +599,5 @@ class Scene:
             fail("heat.laser", f"needs model.material.kind plane_stress (a thin plate heated "
                  f"through its thickness), not {mat.kind}")
         lat = self.model.lattice
-        if lat is not None and lat.bond == "beam":
-            fail("heat", "beam bonds between rotating particles carry no heat yet "
-                 "(model.lattice.bond: beam; docs/reference/limits.md)")
         if self.heat.melting is not None and (lat is None or lat.break_strain is None):
             fail("heat.melting", "weakens breakable bonds: needs model.lattice.break_strain")
