@@ -298,6 +298,53 @@ def test_particle_stress_follows_the_current_bonds(tmp_path):
     assert np.abs(s[t > 3.3e-5]).max() < 0.3 * s.max()
 
 
+@pytest.mark.parametrize("bond", ["central", "beam"])
+def test_stiffness_proportional_damping_leaves_broken_bonds_out(bond, tmp_path):
+    """Rayleigh damping of a breakable lattice at rest with random
+    velocities, a third of its bonds broken: the residual is -beta (K0 - sum
+    of the broken bonds' K_b) v - alpha M v to 1e-12 (K_b each broken bond's
+    stiffness at rest, from its rest direction: k n n^T on the relative
+    velocity; beams: their 6 x 6 block), so a crack's faces are not damped
+    as if bonded; the dissipated power is v.C v of that C."""
+    raw = nonlinear(model__lattice__break_strain=1.0, damping__beta=5e-9, damping__alpha=2e4)
+    if bond == "beam":
+        raw["model"]["material"]["nu"] = 0.25
+        raw["model"]["lattice"].update(kind="random", bond="beam")
+    raw["loads"] = []
+    raw.pop("reference", None)
+    asm, dem = dem_of(raw, tmp_path)
+    f = dem.force
+    rng = np.random.default_rng(5)
+    gone = rng.random(len(f.k)) < 0.33
+    f.alive[gone] = False
+    dem.U[:] = 0.0
+    dem.V[:] = rng.standard_normal(dem.V.size)
+    dem.residual(0.0, dem.u, dem.v)
+    got = dem.R.copy()
+    f.alive[:] = True                                            # the same with K0 whole
+    dem.residual(0.0, dem.u, dem.v)
+    whole = dem.R.copy()
+    dof, n = f.dim, f.n_held
+    v = dem.V.reshape(n, dof)
+    back = np.zeros((n, dof))                                    # beta sum K_b v, by hand
+    for b in np.flatnonzero(gone):
+        i, j = f.i[b], f.j[b]
+        if bond == "central":
+            unit = f.dX[b] / np.linalg.norm(f.dX[b])
+            pull = f.k[b] * unit * np.dot(unit, v[j] - v[i])    # -K_b v on i
+            back[i] -= pull
+            back[j] += pull
+        else:
+            Ke = f._rest_blocks[f._source[[b]]][0]
+            fe = Ke @ np.concatenate([v[i], v[j]])
+            back[i] += fe[:dof]
+            back[j] += fe[dof:]
+    expected = whole + 5e-9 * back.ravel()
+    assert gone.sum() > 10 and np.abs(back).max() > 0
+    assert np.abs(got - expected).max() < 1e-12 * np.abs(whole).max()
+    asm.destroy()
+
+
 def test_the_compiled_bond_loop_matches_the_numpy_reference(tmp_path):
     """Random displacements of 1e-3 a with critical strains that break about a
     third of the bonds: the compiled loop (solver/partitions/bond_kernel.py) and

@@ -72,11 +72,13 @@ class BondForce(Force):
         # bonds with at least one owned end: this piece's rows
         local = lay.local(conn.ravel()).reshape(conn.shape)
         mine = ((local >= 0) & (local < lay.n_owned)).any(axis=1)
+        source = np.flatnonzero(mine)            # each bond's block in ``stiff``
         conn, k, local = conn[mine], stiff.k[mine], local[mine]
         # bonds sorted by their first local particle: the compiled loop sums a run once
         ghost_last = np.where(local < 0, np.iinfo(np.int64).max, local)
         order = np.lexsort((ghost_last[:, 1], ghost_last[:, 0]))
         conn, k, local = conn[order], k[order], local[order]
+        self._rest_blocks, self._source = stiff, source[order]    # (release_broken)
         ghosts = np.unique(conn[local < 0])                  # another piece's particles
         at = np.searchsorted(ghosts, conn)
         local = np.where(local < 0, held.size + at, local)  # ghosts after the held nodes
@@ -292,18 +294,43 @@ class BondForce(Force):
         if self.contact is not None:
             self._add_contact(u_vec, u, out)
 
-    def viscous(self, v_vec, out_vec) -> float:
-        """Add the contacts' dashpot and friction forces at velocities ``v_vec``
-        (contacts of the last :meth:`internal`); returns their dissipated power."""
-        n = self.n_held
+    def release_broken(self, v_vec, out_vec):
+        """out += K_b v of the broken bonds (K_b each one's stiffness at rest):
+        ``out`` holding -K0 v (the tangent at rest times the velocities, what
+        stiffness-proportional damping takes), it then holds what the live
+        bonds and the other elements give, so that a crack's faces are not
+        damped as if still bonded.  Collective on a partition split over
+        ranks (the ghosts' velocities), every piece at once."""
+        v = self._velocities(v_vec)
+        gone = np.flatnonzero(~self.alive)
+        if not gone.size:
+            return
+        Ke = self._rest_blocks[self._source[gone]]              # [b, 2 dof, 2 dof]
+        dof, n = self.dim, self.n_held
+        ends = np.stack([self.i[gone], self.j[gone]], axis=1)
+        f = np.einsum("bpq,bq->bp", Ke, v[ends].reshape(len(gone), -1)).reshape(-1, 2, dof)
+        out = out_vec.getArray().reshape(n, dof)
+        for e in range(2):
+            keep = ends[:, e] < n
+            np.add.at(out, ends[keep, e], f[keep, e])
+
+    def _velocities(self, v_vec):
+        """Velocities of the held and ghost particles [local positions, dof]
+        (collective when split: the ghosts', like their displacements)."""
         v = v_vec.getArray(readonly=True)
-        if self._ghost is not None:                  # the ghosts' velocities, like their u
+        if self._ghost is not None:
             if self._gv is None:
                 self._gv = (np.zeros(self._g_arr.size),)
                 self._gv += (vec_on(self._gv[0], init().COMM_SELF),)
             self._ghost.scatter(v_vec, self._gv[1], *self._modes)
             v = np.concatenate([v, self._gv[0]])
-        return self.contact.viscous(v.reshape(-1, self.dim),
+        return v.reshape(-1, self.dim)
+
+    def viscous(self, v_vec, out_vec) -> float:
+        """Add the contacts' dashpot and friction forces at velocities ``v_vec``
+        (contacts of the last :meth:`internal`); returns their dissipated power."""
+        n = self.n_held
+        return self.contact.viscous(self._velocities(v_vec),
                                     out_vec.getArray().reshape(n, self.dim), n)
 
     def reference_internal(self, u_vec, out_vec):

@@ -8,7 +8,7 @@ residual and the work Vecs they need, made only for a damped partition
 
 A linear partition's residual is r = f - K u - beta K v - alpha M v; a
 nonlinear one takes the stiffness-proportional term with the tangent at rest
-(r += -beta K0 v).  Each term's power v.C v goes into the energy audit
+(r += -beta K0 v), without the bonds that have broken.  Each term's power v.C v goes into the energy audit
 (:mod:`solver.partitions.audit`).
 """
 from __future__ import annotations
@@ -45,9 +45,12 @@ class Damping:
             internal(u, r)
         self.mass_term(v, r, audit)
 
-    def nonlinear(self, tangent, v, r, audit):
-        """r += -beta K0 v - alpha M v (``tangent``: -K0, the tangent at rest)."""
+    def nonlinear(self, tangent, v, r, audit, release=None):
+        """r += -beta K0 v - alpha M v (``tangent``: -K0, the tangent at rest;
+        ``release(v, out)``: out += K_b v of the elements no longer there)."""
         tangent.mult(v, self.am_v)       # -K0 v
+        if release is not None and self.beta:
+            release(v, self.am_v)
         r.axpy(self.beta, self.am_v)
         audit.dissipate(v, self.am_v, -self.beta)
         self.mass_term(v, r, audit)

@@ -243,7 +243,10 @@ class Partition:
             if v is not None and self._viscous is not None:            # contact dashpots
                 self.audit.add(self._viscous(v, self.r))
             if self.damping and v is not None:
-                self.damping.nonlinear(self.force.tangent(), v, self.r, self.audit)
+                self.damping.nonlinear(self.force.tangent(), v, self.r, self.audit,
+                                       self.force.release_broken
+                                       if self.force.bonded and self.force.break_strain
+                                       is not None else None)
         elif self.damping and v is not None:
             self.damping.linear(self.internal_force, u, v, self.r, self.audit)
         else:
