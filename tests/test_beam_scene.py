@@ -82,8 +82,9 @@ def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(
     at the one before) and the energy audit closes to 1e-3 (measured 4.0e-4,
     1.6e-3 with the later energy alone).  Fragments touch (contact
     with friction 0.5 on shear springs that turn the particles, rolling
-    resistance 0.1): friction dissipates (measured 8.9e-4 of the work).  Stopped while breaking with a contact live (its shear
-    history and the pair's rotations in the checkpoint) and restarted on 2
+    resistance 0.1): friction dissipates (measured 8.9e-4 of the work).
+    Stopped while breaking with a contact live (its shear history and the
+    pair's rotations in the checkpoint) and restarted on 2
     ranks (the dem partition over both), the run breaks the same beams at the
     same times in the same modes as the uninterrupted 1-rank run, its probes
     within 1e-9 of the peak."""

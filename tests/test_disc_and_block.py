@@ -47,10 +47,12 @@ def split(path, v=0.02):
 def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(disc):
     """The jaws' load (from the rate of their work) rises to a peak and drops
     below half of it within 50 us; Hondros's centre stress at the peak is the
-    estimate E eps_c / (c (1 + 3 nu)) within 10 % (measured: +6 %); over 90 %
-    of the broken bonds lie within 5 mm of the loaded diameter and they reach
-    from y < -14 mm to y > 14 mm (the disc's core is 18 mm).  (1 vs 2 ranks:
-    the restart test below.)"""
+    estimate E eps_c / (c (1 + 3 nu)) within 10 % (measured: +6 %); the
+    bonds broken by 20 us after the peak (the split: 295 of 465) lie over
+    95 % within 5 mm of the loaded diameter (measured 98.6 %; the later
+    fragments near the jaws bring all breaks to 91 %) and reach from
+    y < -14 mm to y > 14 mm (the disc's core is 18 mm).  (1 vs 2 ranks: the
+    restart test below.)"""
     t, P, b = split(disc)
     k = int(np.argmax(P))
     assert 0.5e-3 < t[k] < 0.99e-3
@@ -59,8 +61,9 @@ def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(disc):
     c = calibration.measure(2, 0.0, 1.0, 1).concentration
     estimate = 30.0e9 * 5.0e-4 / (c * (1 + 3 * 0.33))
     assert abs(sigma / estimate - 1) < 0.10, (sigma, estimate)
+    b = b[b[:, 0] <= t[k] + 2e-5]                                  # the split
     near = np.abs(b[:, 1]) < 5e-3
-    assert near.mean() > 0.9
+    assert len(b) > 100 and near.mean() > 0.95, (len(b), near.mean())
     assert b[near, 2].min() < -0.014 and b[near, 2].max() > 0.014
 
 

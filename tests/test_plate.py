@@ -37,7 +37,9 @@ def test_the_heated_plate_cracks_beside_the_spot_and_across_on_one_and_two_ranks
     bonds break as a symmetric pair 15-25 mm either side of the spot centre on
     its horizontal line, weakened by their temperature (T > 340 K, critical
     strain below break_strain); the crack covers the whole 100 mm width within
-    40 us; kinetic + strain + released + dissipated = work to 3e-3; the broken
+    40 us; kinetic + strain + released + dissipated = work to 1e-3 (measured
+    2.6e-4; 1.9e-3 before broken bonds released the mean of their last two
+    evaluations' energies and left the damping); the broken
     bonds are in <stem>_cracks.xdmf; on 2 ranks the same bonds break at the
     same steps with the same strains."""
     b, e, released, far, _ = strong_laser(tmp_path, 1)
@@ -50,7 +52,7 @@ def test_the_heated_plate_cracks_beside_the_spot_and_across_on_one_and_two_ranks
     soon = b[b[:, 0] <= b[0, 0] + 4e-5]
     assert np.unique(np.floor(soon[:, 1] / 8e-4)).size * 8e-4 >= 0.0992
     audit = e["kinetic"][-1] + e["strain"][-1] + released + e["dissipated"][-1]
-    assert abs(audit / e["external_work"][-1] - 1) < 3e-3           # 1.9e-3 measured
+    assert abs(audit / e["external_work"][-1] - 1) < 1e-3           # 2.6e-4 measured
     import meshio                                   # the crack for ParaView
     cracks = meshio.read(tmp_path / "p1_cracks.xdmf")
     assert len(cracks.points) == len(b)

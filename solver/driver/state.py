@@ -167,7 +167,8 @@ def restore(data: dict, parts, scheme, guard):
         p.steps = int(saved["steps"])
         # the work of a partition on several ranks is summed over its pieces:
         # keep it on the first one
-        work = np.atleast_1d(np.asarray(saved["work"], dtype=float))   # external, dissipated, released
+        # external work, dissipated, released (older checkpoints: the first two)
+        work = np.atleast_1d(np.asarray(saved["work"], dtype=float))
         first = p.layout.piece == 0
         p.work = float(work[0]) if first else 0.0
         p.dissipated = float(work[1]) if first and work.size > 1 else 0.0

@@ -87,9 +87,10 @@ class BeamBondForce(BondForce):
     def _break_beams(self, which, mode, q):
         """Record beams ``which`` as broken at ``q`` in ``mode`` (1 tension, 2
         shear): time, midpoint, the strain that broke it (the outer fibre's,
-        or |V| / (E_b A)) and its limit, temperature (NaN without heat), mode, the energy it
-        released (the mean of this evaluation's and the last one's), particles.  The energy counts once: on the piece owning its
-        first particle."""
+        or |V| / (E_b A)) and its limit, temperature (NaN without heat),
+        mode, the energy it released (the mean of this evaluation's and the
+        last one's), particles.  The energy counts once: on the piece owning
+        its first particle."""
         sub = self.beams.subset(which)
         fibre, slip, t_limit, s_limit = sub.failure(q[:, :2], q[:, 2])
         shear = mode == 2
@@ -102,7 +103,8 @@ class BeamBondForce(BondForce):
         self.released += float(energy[first].sum())
         temp = self.T[which] if self.T is not None else np.full(which.size, np.nan)
         for w, row in zip(which[first].tolist(),
-                          np.column_stack([mid, strain, limit, temp, mode, energy])[first].tolist()):
+                          np.column_stack([mid, strain, limit, temp, mode,
+                                           energy])[first].tolist()):
             self.broken.append((self.now, *row, int(self.nodes[w, 0]), int(self.nodes[w, 1])))
 
     def restore_broken(self, rows):

@@ -34,6 +34,16 @@ A pair bonded at rest is never in contact while its bond lives; once the bond
 breaks, the two touch again only when pressed closer than 2r, so a crack
 that opens transmits nothing and a crack that closes transmits compression.
 
+Rotating particles (``rotary``: 2D beam models, u's last column the
+rotation, out's the torque): the contact point lies half way between the
+centres, l = |x_j - x_i| / 2 from each; the shear displacement also grows by
+-l (dtheta_i + dtheta_j) t (t = z x n: a pair turning rigidly with its
+particles strains nothing), the tangential force's moment -l n x f_t turns
+both particles (the two balance the pair's forces' moment: angular momentum
+is kept), and with ``rolling_friction`` mu_r a rolling spring
+k_r = k_t (r/2)^2 on the relative rotation theta_i - theta_j since the
+contact began turns them apart, capped at mu_r (r/2) f_n.
+
 Distances are taken as (X_j - X_i) + (u_j - u_i) from the rest positions X
 and the displacements u, as the bonds take theirs (see
 :mod:`solver.partitions.bond_kernel`), never from the rounded sums X + u.
@@ -231,12 +241,14 @@ class Contact:
     def _allocate(self, dim):
         """The compiled loops' arrays for the pairs with an owned end; with
         shear springs the separations are the histories' (the loop advances
-        them; rotating particles: and the pair's sum of rotations)."""
+        them; rotating particles: and the pair's sum and difference of
+        rotations)."""
         i, j, bond, with_bond, rest = self._mine
         m = i.size
         self._forces, self._viscous = self._kern.LOOPS[dim]        # (2D and 3D only)
         none = np.zeros((0, dim))
-        xi, d, live = self._shear if self.history else (none, np.zeros((m, dim + 2 * self.rotary)),
+        width = dim + 2 * self.rotary
+        xi, d, live = self._shear if self.history else (none, np.zeros((m, width)),
                                                         np.zeros(0, bool))
         self._eval = dict(pi=np.ascontiguousarray(i), pj=np.ascontiguousarray(j),
                           bond=np.ascontiguousarray(bond) if with_bond.size else

@@ -8,7 +8,8 @@ residual and the work Vecs they need, made only for a damped partition
 
 A linear partition's residual is r = f - K u - beta K v - alpha M v; a
 nonlinear one takes the stiffness-proportional term with the tangent at rest
-(r += -beta K0 v), without the bonds that have broken.  Each term's power v.C v goes into the energy audit
+(r += -beta K0 v), without the bonds that have broken.  Each term's power
+v.C v goes into the energy audit
 (:mod:`solver.partitions.audit`).
 """
 from __future__ import annotations
