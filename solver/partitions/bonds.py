@@ -79,6 +79,7 @@ class BondForce(Force):
         order = np.lexsort((ghost_last[:, 1], ghost_last[:, 0]))
         conn, k, local = conn[order], k[order], local[order]
         self._rest_blocks, self._source = stiff, source[order]    # (release_broken)
+        self._gone_blocks = (np.zeros(0, np.int64), None)   # the broken bonds' blocks
         ghosts = np.unique(conn[local < 0])                  # another piece's particles
         at = np.searchsorted(ghosts, conn)
         local = np.where(local < 0, held.size + at, local)  # ghosts after the held nodes
@@ -305,7 +306,10 @@ class BondForce(Force):
         gone = np.flatnonzero(~self.alive)
         if not gone.size:
             return
-        Ke = self._rest_blocks[self._source[gone]]              # [b, 2 dof, 2 dof]
+        cached, Ke = self._gone_blocks
+        if not np.array_equal(cached, gone):     # blocks only when bonds have broken since
+            Ke = self._rest_blocks[self._source[gone]]          # [b, 2 dof, 2 dof]
+            self._gone_blocks = (gone, Ke)
         dof, n = self.dim, self.n_held
         ends = np.stack([self.i[gone], self.j[gone]], axis=1)
         f = np.einsum("bpq,bq->bp", Ke, v[ends].reshape(len(gone), -1)).reshape(-1, 2, dof)

@@ -281,8 +281,8 @@ LOOPS = {2: loops(2), 3: loops(3)}
 def _cells(x, reach):
     """Cells of side >= ``reach`` over the points ``x``, with a layer of empty
     cells around them (a neighbour of an occupied cell is always a cell):
-    (cell of each point, first point of each cell in ``order``, the points
-    by cell, cells per axis)."""
+    (first point of each cell in ``order``, the points by cell, cells per
+    axis)."""
     n, dim = x.shape
     lo = np.empty(dim)
     hi = np.empty(dim)
@@ -317,7 +317,7 @@ def _cells(x, reach):
     for p in range(n):
         order[fill[cell[p]]] = p
         fill[cell[p]] += 1
-    return cell, start, order, shape
+    return start, order, shape
 
 
 def _ahead(shape):
@@ -402,7 +402,7 @@ def pairs_within(x, reach):
         return np.zeros((0, 2), np.int64)
     if not np.all(np.isfinite(x)):                 # (as the k-d tree refuses them)
         raise ValueError("contact search: particle positions are not finite")
-    _, start, order, shape = _cells(x, reach)
+    start, order, shape = _cells(x, reach)
     xs, delta = x[order], _ahead(shape)
     found = np.empty((4 * len(x) + 16, 2), np.int64)
     while (k := _near(xs, reach, start, order, delta, found)) < 0:
