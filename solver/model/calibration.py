@@ -48,7 +48,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from solver.model import packing
+from solver.model import dilatation, packing
 
 NU_TOLERANCE = 0.03
 SIDE = {2: 60.0, 3: 20.0}          # the sample's side [spacings]
@@ -134,10 +134,10 @@ def _coo(i, j, blocks):
     return rows, cols, blocks.ravel(), dofs
 
 
-@lru_cache(maxsize=64)
-def measure(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0) -> Measured:
-    """E and nu of a packing with these settings at kappa = 1 (see the module);
-    ``shear`` psi > 0: 2D beam bonds of transverse stiffness psi k (rotations)."""
+def _system(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0):
+    """The sample's packing, its bonds' stiffness (COO, a weak tie to the ground
+    included) and the grips: (x, r, i, j, blocks, dofs, (rows, cols, vals, n),
+    fixed, value)."""
     side = SIDE[dim]
     lo, hi = np.zeros(dim), np.full(dim, side)
     x, r = packing.poisson_disc(lo, hi, 0.5, spread, seed)
@@ -163,13 +163,71 @@ def measure(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0) 
         value.append([0.0])
     fixed = np.concatenate([np.asarray(f, np.int64) for f in fixed])
     value = np.concatenate([np.asarray(v, float) for v in value])
-    u = _solve(rows, cols, vals, n, fixed, value)
+    return x, r, i, j, blocks, dofs, (rows, cols, vals, n), fixed, value
+
+
+@lru_cache(maxsize=1)
+def _bond_factor(dim: int, spread: float, gap: float, seed: int):
+    """SuperLU factor of the free rows of the sample's central-bond stiffness
+    (the preconditioner of :func:`measure` with the volumetric term)."""
+    from scipy.sparse import coo_matrix  # lazy: scipy loads only for a random packing
+    from scipy.sparse.linalg import splu  # lazy: as above
+    *_, (rows, cols, vals, n), fixed, _ = _system(dim, spread, gap, seed)
+    free = np.ones(n, bool)
+    free[fixed] = False
+    K = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+    return splu(K[free][:, free].tocsc())
+
+
+def _solve_bulk(rows, cols, vals, n, fixed, value, factor):
+    """As :func:`_solve`, by conjugate gradients preconditioned with the
+    central bonds' ``factor``: the volumetric term stiffens only the
+    dilatational modes, so about 20 iterations reach 1e-12 (one LU of
+    the wider matrix took 3 x longer than the whole solve)."""
+    from scipy.sparse import coo_matrix  # lazy: scipy loads only for a random packing
+    from scipy.sparse.linalg import LinearOperator, cg  # lazy: as above
+    K = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
+    free = np.ones(n, bool)
+    free[fixed] = False
+    u = np.zeros(n)
+    u[fixed] = value
+    A = K[free][:, free]
+    rhs = -(K[free][:, ~free] @ u[~free])
+    M = LinearOperator(A.shape, factor.solve)
+    u[free], info = cg(A, rhs, x0=factor.solve(rhs), rtol=1e-12, maxiter=500, M=M)
+    if info:
+        raise ArithmeticError(f"the calibration's solve did not converge ({info} iterations)")
+    return u
+
+
+@lru_cache(maxsize=64)
+def measure(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0,
+            bulk: float = 0.0) -> Measured:
+    """E and nu of a packing with these settings at kappa = 1 (see the module);
+    ``shear`` psi > 0: 2D beam bonds of transverse stiffness psi k (rotations);
+    ``bulk`` eta > 0: the volumetric term c_p = eta V_p n_p / n_full
+    (:mod:`solver.model.dilatation`)."""
+    x, r, i, j, blocks, dofs, (rows, cols, vals, n), fixed, value = _system(
+        dim, spread, gap, seed, shear)
+    if bulk:
+        G = dilatation.gradient(x, i, j)
+        c = bulk * dilatation.weights(r, i, j, dim)
+        Kv = (G.T @ G.multiply(c[:, None])).tocoo()
+        rows, cols = np.concatenate([rows, Kv.row]), np.concatenate([cols, Kv.col])
+        vals = np.concatenate([vals, Kv.data])
+        u = _solve_bulk(rows, cols, vals, n, fixed, value,
+                        _bond_factor(dim, spread, gap, seed))
+    else:
+        u = _solve(rows, cols, vals, n, fixed, value)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return _measured(x, i, j, blocks, dofs, u, side, shear)
+        return _measured(x, i, j, blocks, dofs, u, SIDE[dim], shear,
+                         c * (G @ u) * dim / dilatation.counts(i, j, len(x)) if bulk else None)
 
 
-def _measured(x, i, j, blocks, dofs, u, side, shear=0.0):
-    """E, nu and the strain concentration of the solved sample (see the module)."""
+def _measured(x, i, j, blocks, dofs, u, side, shear=0.0, P=None):
+    """E, nu and the strain concentration of the solved sample (see the module);
+    ``P``: the volumetric term's P_p = c_p theta_p dim / n_p, whose bond
+    tensions (P_i + P_j) / L join the virial."""
     dim = x.shape[1]
     nd = blocks.shape[1] // 2
     ut = u.reshape(-1, nd)[:, :dim]
@@ -183,6 +241,8 @@ def _measured(x, i, j, blocks, dofs, u, side, shear=0.0):
     # the force each bond needs at its end j (tension: along d), times d: the virial
     f_j = np.einsum("brs,bs->br", blocks[inside], u[dofs[inside]])[:, nd:nd + dim]
     volume = (side - 2 * WINDOW) ** dim
+    if P is not None:
+        f_j[:, 0] += (P[i[inside]] + P[j[inside]]) / L * d[:, 0] / L
     sxx = np.sum(f_j[:, 0] * d[:, 0]) / volume
     du = ut[j[inside]] - ut[i[inside]]
     axial = np.einsum("ba,ba->b", du, d) / L ** 2
@@ -220,8 +280,17 @@ def calibrate(E: float, nu: float, kind: str, spread: float, gap: float,
         raise ValueError(f"a random packing of central bonds (radius_spread {spread:g}, gap "
                          f"{gap:g}) represents nu = {represents:.3g} in {kind} (measured on a "
                          f"uniaxial test of {m.particles} particles); the material has nu = "
-                         f"{nu:g} (allowed within {NU_TOLERANCE})")
+                         f"{nu:g} (allowed within {NU_TOLERANCE}; {_lower(dim, nu, represents)})")
     return target / E / m.E, m
+
+
+def _lower(dim: int, nu: float, represents: float) -> str:
+    """What gives a nu the central bonds do not represent."""
+    if nu > represents:
+        return "a larger nu takes the volumetric term (solver.model.dilatation)"
+    if dim == 2:
+        return "a smaller one needs beam bonds: model.lattice.bond: beam"
+    return "a smaller one needs beam bonds, which are 2D"
 
 
 SHEAR_RANGE = (0.0, 2.0)      # psi searched by calibrate_beams
@@ -254,3 +323,59 @@ def calibrate_beams(E: float, nu: float, kind: str, spread: float, gap: float,
     psi = brentq(lambda p: nu_at(p) - in_plane, *SHEAR_RANGE, xtol=1e-6, rtol=1e-10)
     m = measure(2, float(spread), float(gap), int(seed), float(psi))
     return target / E / m.E, psi, m
+
+
+BULK_MIN = 0.005       # a nu this far above the central bonds' takes the volumetric term
+BULK_STEP = 1e-4       # calibrate_bulk stops when the measured nu is this close
+BULK_LIMIT = 1000.0    # ... and refuses an eta beyond this (nu too near its limit)
+
+
+def _lame_ratio(nu: float, dim: int) -> float:
+    """lambda / mu of an isotropic material of (in-plane) Poisson's ratio nu."""
+    return 2.0 * nu / (1.0 - (2.0 if dim == 3 else 1.0) * nu)
+
+
+def calibrate_bulk(E: float, nu: float, kind: str, spread: float, gap: float,
+                   seed: int) -> tuple[float, float, Measured]:
+    """(kappa, eta, the packing measured at kappa = 1 and that eta) of central
+    bonds with the volumetric term (:mod:`solver.model.dilatation`): eta sets
+    nu above the central bonds' own, found by the secant method on lambda/mu
+    (nearly linear in eta) to BULK_STEP in nu, one measured test each; kappa
+    then sets E.  ValueError for a nu the term cannot reach (at or beyond the
+    limit: 1 in plane stress, 1/2 in plane strain and 3D)."""
+    dim = 3 if kind == "solid" else 2
+    in_plane = nu / (1.0 - nu) if kind == "plane_strain" else nu
+    target = E / (1.0 - nu ** 2) if kind == "plane_strain" else E
+    if not in_plane < (0.5 if dim == 3 else 1.0):
+        raise ValueError(f"the volumetric term reaches nu below {0.5 if dim == 3 else 1.0:g} in "
+                         f"{kind}; the material has nu = {nu:g}")
+    goal = _lame_ratio(in_plane, dim)
+
+    def ratio(eta):
+        m = measure(dim, float(spread), float(gap), int(seed), 0.0, float(eta))
+        return _lame_ratio(m.nu, dim) - goal, m
+
+    m0 = measure(dim, float(spread), float(gap), int(seed))
+    f0 = _lame_ratio(m0.nu, dim) - goal
+    # first guess: an affine network, lambda grows by eta times the particles' volume fraction
+    x, r, i, j, *_ = _system(dim, spread, gap, seed)
+    fraction = dilatation.weights(r, i, j, dim).sum() / SIDE[dim] ** dim
+    mu = m0.E / (2.0 * (1.0 + m0.nu))
+    a, b = 0.0, -f0 * mu / fraction
+    fa, best = f0, m0.nu
+    for _ in range(30):
+        if not 0.0 < b <= BULK_LIMIT:
+            break
+        fb, m = ratio(b)
+        best = max(best, m.nu)
+        if abs(m.nu - in_plane) < BULK_STEP:
+            return target / E / m.E, b, m
+        a, fa, b = b, fb, b - fb * (b - a) / (fb - fa)
+    if best < in_plane:                    # the packing's own relaxation caps what eta gives
+        m = ratio(BULK_LIMIT)[1]
+        best = max(best, m.nu)
+    def plain(v):
+        return v / (1.0 + v) if kind == "plane_strain" else v
+    raise ValueError(f"central bonds with the volumetric term reach nu {plain(best):.3g} at most "
+                     f"in {kind} (radius_spread {spread:g}, gap {gap:g}; eta up to "
+                     f"{BULK_LIMIT:g}); the material has nu = {nu:g}")

@@ -17,7 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from solver.laws import CONTACT_LAWS, ContactSettings
-from solver.model import data as model_data, heat, initial, prescribed, shell_model
+from solver.model import data as model_data, dilatation, heat, initial, prescribed, shell_model
 from solver.model.cell_blocks import group_matrices, kept, nodal
 from solver.model.boundary import fixed_dofs, load_list
 from solver.model.dofmap import DofMap
@@ -90,7 +90,11 @@ class ContinuumArrays:
             bending = lat.bending
             if bonds:
                 bi, bj, k = bonds
-                keep = inh[bi] | inh[bj]
+                near = inh
+                if lat.dilatation is not None:     # the whole stars of the held nodes' neighbours
+                    near = inh.copy()
+                    near[bj[inh[bi]]] = near[bi[inh[bj]]] = True
+                keep = near[bi] | near[bj]
                 bonds = (bi[keep], bj[keep], k[keep])
                 bending = bending[keep] if bending is not None else None
             lat = dataclasses.replace(lat, bonds=bonds, overlap_cells=touching(lat.overlap_cells),
@@ -132,6 +136,8 @@ class ContinuumArrays:
             conn = np.stack([bi[keep], bj[keep]], axis=1)
             out.append((conn, BondStiffness(self.points, conn, k[keep]) if lat.bending is None
                         else BeamStiffness(self.points, conn, k[keep], lat.bending[keep])))
+            if lat.dilatation is not None:
+                out += lat.dilatation.blocks(self.points, bi[keep], bj[keep], held)
         return out + self._cell_blocks(lat.overlap_cells, held) + \
             self._cell_blocks(lat.carried, held)
 
@@ -143,6 +149,9 @@ class ContinuumArrays:
         conns = [conn for _, conn, _ in list(self.cells) + list(lat.carried if lat is not None else ())]
         if lat is not None and lat.bonds:
             conns.append(tuple(lat.bonds[:2]))          # (the ends as they are: no copy)
+            if lat.dilatation is not None:              # a star couples its particles
+                conns += [conn for conn, _ in lat.dilatation.blocks(
+                    self.points, *lat.bonds[:2], np.arange(self.n_nodes))]
         return Graph.from_cells(self.n_nodes, conns)
 
 
@@ -390,6 +399,16 @@ def contact_of(lat):
                            rolling_friction=c.rolling_friction or 0.0)
 
 
+def _dilatation(zone, n_nodes):
+    """The volumetric term of the core particles (None without one)."""
+    if zone.dilatation is None:
+        return None
+    c = np.zeros(n_nodes)
+    c[zone.n_mesh:] = zone.dilatation
+    bi, bj, _ = zone.bonds
+    return dilatation.Dilatation(c, dilatation.counts(bi, bj, n_nodes))
+
+
 def _with_zone(scene, mesh, zone, cells, mass):
     """The model of a transition band: mesh nodes, then the core particles."""
     dim = mesh.dim
@@ -423,6 +442,7 @@ def _with_zone(scene, mesh, zone, cells, mass):
                                            geometry=lat.geometry,
                                            break_strain=break_strain_of(lat, zone),
                                            weibull=weibull_of(lat), bending=zone.bending,
-                                           shear=shear_of(lat)),
+                                           shear=shear_of(lat),
+                                           dilatation=_dilatation(zone, n_nodes)),
                            contact=contact_of(lat), zone=zone)
 

@@ -64,6 +64,7 @@ class Lattice:
     weibull: tuple | None = None        # (modulus, seed) of the strengths' spread, or None
     bending: np.ndarray | None = None   # bond: beam, k_b of each of ``bonds`` (particles rotate)
     shear: tuple | None = None          # breakable beams: (shear_ratio, tan friction angle)
+    dilatation: object = None           # the volumetric term (solver.model.dilatation), or None
 
 
 @runtime_checkable

@@ -31,7 +31,7 @@ import numpy as np
 from solver.errors import SceneError
 from solver.model.embedding import (Embedding, find, flat_cells, local_coordinates,
                                     locate_in_cells)
-from solver.model import calibration, packing
+from solver.model import calibration, dilatation, packing
 from solver.model.elements import FAMILIES, volumes
 from solver.model.lattice import cubic, square
 
@@ -90,6 +90,7 @@ class Transition:
     concentration: float = 1.0  # the packing's largest bond strain per uniaxial strain (lattice: 1)
     bending: np.ndarray | None = None  # k_b of the core bonds (bond: beam), else None
     radii: np.ndarray | None = None    # [n_core] the core particles' radii (random packing)
+    dilatation: np.ndarray | None = None   # [n_core] c of the volumetric term, else None
 
     @property
     def n_core(self) -> int:
@@ -171,7 +172,7 @@ def build(spec, mesh) -> Transition:
     nodes = np.unique(np.concatenate([band.nodes, region.nodes]))
     lo, hi = pts[nodes].min(axis=0), pts[nodes].max(axis=0)
     sites = (_random if lat.kind == "random" else _square)(spec, pts, band, region, lo, hi)
-    points, mass, bi, bj, bk, band_cell, band_w, kept, note, concentration, kb, radii = sites
+    points, mass, bi, bj, bk, band_cell, band_w, kept, note, concentration, kb, radii, c = sites
     is_band = kept & (band_cell >= 0)
     is_core = kept & ~is_band
     empty = _empty_cells(pts, band.cells, band_cell[is_band], points[is_band])
@@ -212,7 +213,10 @@ def build(spec, mesh) -> Transition:
     return Transition(n_mesh, points[core_ids], mass[core_ids], bonds, blocks, node_mass,
                       emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a, note,
                       concentration, None if kb is None else kb[cc],
-                      None if radii is None else radii[core_ids])
+                      None if radii is None else radii[core_ids],
+                      None if c is None else c[core_ids] * dilatation.counts(
+                          bonds[0] - n_mesh, bonds[1] - n_mesh, core_ids.size) /
+                      dilatation.FULL[dim])
 
 
 def _carried_bonds(points, bi, bj, bk, is_band, is_core, band_no, model_id, b_nodes, b_w):
@@ -262,7 +266,7 @@ def _square(spec, pts, band, region, lo, hi):
     share = mat.rho * (mat.depth * a ** 2 / 4 if dim == 2 else a ** 3 / 8)
     mass = np.bincount(grid.corners[full].ravel(), minlength=len(grid.points)) * share
     kept &= mass > 0                               # a site outside every kept cell: no particle
-    return grid.points, mass, bi, bj, bk, band_cell, band_w, kept, None, 1.0, None, None
+    return grid.points, mass, bi, bj, bk, band_cell, band_w, kept, None, 1.0, None, None, None
 
 
 def _inside(pts, band, region, particles):
@@ -301,13 +305,17 @@ def _random(spec, pts, band, region, lo, hi):
     if beam and dim != 2:
         raise SceneError("model.lattice.bond: beam bonds between rotating particles are 2D; "
                          "this mesh is 3D")
-    psi = 0.0
+    psi = eta = 0.0
     try:
         kappa, measured = calibration.calibrate(E, mat.nu, mat.kind, spread, gap, lat.seed,
-                                                check=not beam)
+                                                check=not beam and not _above(mat, dim, spread,
+                                                                              gap, lat.seed))
         if beam:
             kappa, psi, measured = calibration.calibrate_beams(E, mat.nu, mat.kind, spread, gap,
                                                                lat.seed)
+        elif _above(mat, dim, spread, gap, lat.seed):
+            kappa, eta, measured = calibration.calibrate_bulk(E, mat.nu, mat.kind, spread, gap,
+                                                              lat.seed)
     except calibration.Floppy as e:
         raise SceneError(f"model.lattice.gap: {e}") from None
     except ValueError as e:
@@ -329,11 +337,26 @@ def _random(spec, pts, band, region, lo, hi):
     if beam:
         note += (f"; beam bonds (bending k_b = {psi:.4g} k L^2 / 12, calibrated to nu "
                  f"{mat.nu:g}), particles rotating with inertia 1/2 m r^2")
+    c = None
+    if eta:
+        c = np.zeros(len(points))
+        c[ids] = eta * kappa * E * dilatation.volumes(radii[ids], dim, mat.depth)   # (x n_p / n_full)
+        note += (f"; a volumetric term on every particle's bonds (c = {eta:.4g} kappa E V n / "
+                 f"{dilatation.FULL[dim]:g}, "
+                 f"calibrated to nu {mat.nu:g})")
     if lat.strength == "packing":
         note += (f"; bonds break at {measured.concentration:.3f} x break_strain (strength: "
                  "packing)")
     return (points, mass, ids[i], ids[j], bk, band_cell, band_w, kept, note,
-            measured.concentration, kb, radii)
+            measured.concentration, kb, radii, c)
+
+
+def _above(mat, dim, spread, gap, seed) -> bool:
+    """Whether nu lies above what the packing's central bonds represent by more
+    than calibration.BULK_MIN (the volumetric term then makes up the rest)."""
+    m = calibration.measure(dim, float(spread), float(gap), int(seed))
+    represents = m.nu / (1.0 + m.nu) if mat.kind == "plane_strain" else m.nu
+    return mat.nu > represents + calibration.BULK_MIN
 
 
 def _curls(pts, cells: dict, cell, particles) -> np.ndarray:

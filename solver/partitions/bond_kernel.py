@@ -24,7 +24,7 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped):
+def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
     n_snap, cur = 0, -1
     fx = fy = 0.0
     for b in range(i.size):
@@ -45,7 +45,10 @@ def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped):
             snapped[n_snap] = b
             n_snap += 1
             continue
-        s = k[b] * stretch / L if L > 0 else 0.0
+        pull = k[b] * stretch
+        if tension is not None:             # (None: compiled without this line)
+            pull += tension[b]
+        s = pull / L if L > 0 else 0.0
         fx += s * dx
         fy += s * dy
         if q < rows:
@@ -58,7 +61,7 @@ def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped):
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped):
+def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
     n_snap, cur = 0, -1
     fx = fy = fz = 0.0
     for b in range(i.size):
@@ -82,7 +85,10 @@ def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped):
             snapped[n_snap] = b
             n_snap += 1
             continue
-        s = k[b] * stretch / L if L > 0 else 0.0
+        pull = k[b] * stretch
+        if tension is not None:             # (None: compiled without this line)
+            pull += tension[b]
+        s = pull / L if L > 0 else 0.0
         fx += s * dx
         fy += s * dy
         fz += s * dz
@@ -97,14 +103,16 @@ def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped):
     return n_snap
 
 
-def bond_forces(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, accumulate) -> int:
+def bond_forces(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, accumulate,
+                tension=None) -> int:
     """out[rows, dim] (+)= the bond forces at displacements ``u`` (rest
-    separations ``dX`` per bond); returns how many bonds broke (their indices
-    in ``snapped``)."""
+    separations ``dX`` per bond), each bond pulling with k (L - L0) plus its
+    ``tension`` (the volumetric term's, :mod:`solver.partitions.dilatation`;
+    None: none); returns how many bonds broke (their indices in ``snapped``)."""
     if not accumulate:
         out[:] = 0.0
     loop = _loop2 if u.shape[1] == 2 else _loop3
-    return loop(dX, u, i, j, k, L0, alive, limit, out, rows, snapped)
+    return loop(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension)
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)

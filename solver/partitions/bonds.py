@@ -53,7 +53,7 @@ class BondForce(Force):
     bonded = True
 
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
-                 contact=None, heat=None, node_mass=None, weibull=None):
+                 contact=None, heat=None, node_mass=None, weibull=None, dilatation=None):
         # lazy: numba (about 1 s to import) loads only when a bonded partition is built
         from solver.partitions.bond_kernel import bond_forces, rest_length_work
         self._bond_forces, self._rest_length_work = bond_forces, rest_length_work
@@ -120,6 +120,10 @@ class BondForce(Force):
         self._u = np.zeros((len(self.X), dim))     # displacements of held + ghost particles
         self._snapped = np.zeros(len(k), dtype=np.int64)
         self._u_last = None                        # held + bond ghosts at the last evaluation
+        self.volumetric = None                     # the volumetric term (dilatation)
+        if dilatation is not None:
+            from solver.partitions.dilatation import Volumetric
+            self.volumetric = Volumetric(self, dilatation.c)
         self.contact = self.halo = None
         if contact is not None:
             self._start_contact(contact, part, whole, node_mass)
@@ -268,7 +272,10 @@ class BondForce(Force):
         :meth:`displacements`): f = k (L - L0) d / L, live bonds only."""
         d = self.separations(u, bonds)
         L = np.linalg.norm(d, axis=1)
-        pull = np.where(self.alive[bonds], self.k[bonds] * (L - self.L0[bonds]) /
+        tension = 0.0
+        if self.volumetric is not None:      # of the last force evaluation (no scatter here)
+            tension = self.volumetric.last_tensions(bonds)
+        pull = np.where(self.alive[bonds], (self.k[bonds] * (L - self.L0[bonds]) + tension) /
                         np.where(L > 0, L, 1.0), 0.0)
         return float(np.sum(pull * d[:, c] ** 2))
 
@@ -285,8 +292,10 @@ class BondForce(Force):
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
         out = out_vec.getArray().reshape(n, self.dim)
+        tension = self._tensions(u) if self.volumetric is not None else None
         snapped = self._bond_forces(self.dX, u, self.i, self.j, self.k, self.L0, self.alive,
-                                    self.limit, out, n, self._snapped, self.operator is not None)
+                                    self.limit, out, n, self._snapped, self.operator is not None,
+                                    tension)
         if snapped:
             which = self._snapped[:snapped].copy()
             self._break(which, u, np.linalg.norm(self.separations(u, which), axis=1)
@@ -294,6 +303,33 @@ class BondForce(Force):
         self._remember(u)
         if self.contact is not None:
             self._add_contact(u_vec, u, out)
+
+    def _tensions(self, u):
+        """The volumetric term's bond tensions at displacements ``u``; the bonds
+        beyond their critical strain break first, the term's energy they take
+        with them counted as released (collective when split)."""
+        L = np.linalg.norm(self.separations(u), axis=1)
+        stretch = L - self.L0
+        snap = self.alive & (stretch > self.limit * self.L0)
+        if snap.any():
+            which = np.flatnonzero(snap)
+            self._release_volumetric(L, u, lambda: self._break(which, u, stretch[which]))
+        return self.volumetric.tensions(L)
+
+    def _release_volumetric(self, L, u, brk):
+        """Break bonds by calling ``brk``; the volumetric energy the breaks take
+        at bond lengths ``L`` (displacements ``u``) counts as released, the mean
+        of it there and at the last evaluation's displacements, as for the
+        bonds' own energy (:meth:`_released`)."""
+        vol = self.volumetric
+        was = self.alive.copy()
+        lengths = [L]
+        if self._u_last is not None:
+            lengths.append(np.linalg.norm(self.separations(self._u_last), axis=1))
+        before = [vol.energy(x, alive=was) for x in lengths]
+        brk()
+        taken = [b - vol.energy(x) for b, x in zip(before, lengths)]
+        self.released += float(np.mean(taken))
 
     def release_broken(self, v_vec, out_vec):
         """out += K_b v of the broken bonds (K_b each one's stiffness at rest):
@@ -346,9 +382,15 @@ class BondForce(Force):
             snap = self.alive & (stretch > self.limit * self.L0)
             if snap.any():
                 which = np.flatnonzero(snap)
-                self._break(which, u, stretch[which])
+                if self.volumetric is not None:
+                    self._release_volumetric(L, u, lambda: self._break(which, u, stretch[which]))
+                else:
+                    self._break(which, u, stretch[which])
         self._remember(u)
-        scale = np.where(self.alive, self.k * stretch / np.where(L > 0, L, 1.0), 0.0)
+        pull = self.k * stretch
+        if self.volumetric is not None:
+            pull = pull + self.volumetric.tensions(L)
+        scale = np.where(self.alive, pull / np.where(L > 0, L, 1.0), 0.0)
         f = scale[:, None] * d                                     # force on i (towards j)
         n, dim = self.n_held, self.dim
         out = np.empty((n, dim))
@@ -410,8 +452,12 @@ class BondForce(Force):
         if count and spec.expansion:
             if self._shares is None:
                 self._shares = self._share()
-            work = self._rest_length_work(self.dX, self.displacements(self.part.u), self.i, self.j,
+            u = self.displacements(self.part.u)
+            work = self._rest_length_work(self.dX, u, self.i, self.j,
                                           self.k, self.L0, L0, self.alive, self._shares)
+            if self.volumetric is not None:
+                L = np.linalg.norm(self.separations(u), axis=1)
+                work += self.volumetric.energy(L, L0) - self.volumetric.energy(L)
         self.T, self.L0 = T, L0
         if self.break_strain is not None and spec.melting is not None:
             weak = np.clip((spec.melting - T) / (spec.melting - spec.initial), 0.0, 1.0)
@@ -466,6 +512,8 @@ class BondForce(Force):
         _, _, L = self._bonds(part.u)
         e = np.where(self.alive, 0.5 * self.k * (L - self.L0) ** 2, 0.0)
         total = float(np.dot(e, self._share()))
+        if self.volumetric is not None:
+            total += self.volumetric.energy(L)
         if self.contact is not None:             # of the last force evaluation (one piece)
             total += self.contact.energy
         if self.operator is not None:
@@ -475,7 +523,7 @@ class BondForce(Force):
         return total
 
     def destroy(self):
-        for obj in (self.operator, self._tangent):
+        for obj in (self.operator, self._tangent, self.volumetric):
             if obj is not None:
                 obj.destroy()
         if self._ghost is not None:

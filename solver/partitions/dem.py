@@ -16,6 +16,7 @@ from solver.laws import BOND_GEOMETRIES
 from solver.partitions.force import LinearForce
 from solver.partitions.partition import Partition
 from solver.model.continuum import BondStiffness
+from solver.model.dilatation import StarStiffness
 from solver.partitions.beam_force import BeamBondForce
 from solver.partitions.bonds import BondForce
 
@@ -63,7 +64,8 @@ class DemPartition(Partition):
         """Lattice bonds from the current configuration (and breakage); the other
         elements keep a linear operator; B (all of them, at rest) is the tangent."""
         lattice = [(c, k) for c, k in blocks if isinstance(k, BondStiffness)]
-        others = [(c, k) for c, k in blocks if not isinstance(k, BondStiffness)]
+        # the volumetric term's stars: in the tangent B only (the force evaluates them)
+        others = [(c, k) for c, k in blocks if not isinstance(k, (BondStiffness, StarStiffness))]
         conn = np.concatenate([c for c, _ in lattice]) if lattice else np.zeros((0, 2), np.int64)
         stiff = lattice[0][1] if lattice else None
         if len(lattice) > 1:
@@ -86,9 +88,12 @@ class DemPartition(Partition):
                               f"{self._ghost_words(force)}")
             return force
         force = BondForce(self, (conn, stiff), other, others, B, lat.break_strain,
-                          contact, model.heat, model.mass, lat.weibull)
+                          contact, model.heat, model.mass, lat.weibull, lat.dilatation)
         strain = (f", breaking beyond strain {lat.break_strain:g}"
                   if lat.break_strain is not None else "")
+        if lat.dilatation is not None:
+            strain += (", a volumetric term on each particle's bonds (tensions (P_i + P_j) / L0, "
+                       "P = c theta dim / n)")
         strain += self._spread(force, lat) + self._contact_words(contact)
         self.built.append(f"{len(force.k)} lattice bonds from the current configuration"
                           f"{strain}{self._ghost_words(force)}")
