@@ -9,6 +9,7 @@ import copy
 
 import h5py
 import numpy as np
+import pytest
 
 from conftest import raw_scene, run_cli, write_scene
 from test_bonds import dem_of, lattice_force
@@ -25,29 +26,56 @@ def bar(nu=0.4, **lattice):
     return raw
 
 
-def test_a_large_rigid_rotation_exerts_no_force(tmp_path):
-    """A 90-degree rotation of the particles: bonds and volumetric term exert
-    nothing (1e-9 of one bond's k a)."""
-    asm, dem = dem_of(bar(), tmp_path)
-    f = dem.force
-    assert f.volumetric is not None and f.volumetric.c[:f.part.layout.n_owned].max() > 0
-    X = f.X[:f.n_held]
-    centre = X.mean(axis=0)
-    U = ((X - centre) @ np.array([[0.0, -1.0], [1.0, 0.0]]).T + centre - X).ravel()
-    out = lattice_force(dem, U)
-    assert np.abs(out[:dem.n_own]).max() < 1e-9 * f.k.max() * 2e-4
+def bar3d(nu=0.33):
+    """The 3D bar of test_transition on a random packing of nu 0.33 (aluminium;
+    the central bonds give 0.24)."""
+    from test_transition import bar3d as plain
+    raw = plain()
+    raw["model"]["material"]["nu"] = nu
+    raw["model"]["lattice"].update(kind="random", geometry="nonlinear", seed=0)
+    return raw
+
+
+@pytest.fixture(scope="module", params=["2D", "3D"])
+def packed(request, tmp_path_factory):
+    """(assembly, dem partition) of the 2D bar at nu 0.4 or the 3D one at 0.33."""
+    raw = bar() if request.param == "2D" else bar3d()
+    asm, dem = dem_of(raw, tmp_path_factory.mktemp(request.param))
+    yield asm, dem
     asm.destroy()
 
 
-def test_the_force_is_the_energys_gradient_and_linearises_to_the_assembled_tangent(tmp_path):
+def test_a_large_rigid_rotation_exerts_no_force(packed):
+    """A 90-degree rotation of the particles (3D: about the axis (1, 2, 2)/3):
+    bonds and volumetric term exert nothing (1e-9 of one bond's k a)."""
+    _, dem = packed
+    f = dem.force
+    assert f.volumetric is not None and f.volumetric.c[:f.part.layout.n_owned].max() > 0
+    X = f.X[:f.n_held]
+    dim = X.shape[1]
+    if dim == 2:
+        R = np.array([[0.0, -1.0], [1.0, 0.0]])
+    else:                                        # Rodrigues: 90 degrees about n
+        n = np.array([1.0, 2.0, 2.0]) / 3.0
+        N = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
+        R = np.eye(3) + N + N @ N
+    centre = X.mean(axis=0)
+    U = ((X - centre) @ R.T + centre - X).ravel()
+    out = lattice_force(dem, U)
+    assert np.abs(out[:dem.n_own]).max() < 1e-9 * f.k.max() * np.median(f.L0)
+
+
+def test_the_force_is_the_energys_gradient_and_linearises_to_the_assembled_tangent(packed):
     """At a random state of the particles (strains about 1e-3): their force is
     minus the derivative of the partition's energy along a random direction
     (central differences, to 1e-6); at rest its derivative is the tangent's
     product (the stars' blocks assembled by solver/model/dilatation.py) to
     1e-6, and the term is part of it (without it the product differs by
-    2.8 % of its largest entry along this direction; 1 % asked)."""
-    asm, dem = dem_of(bar(), tmp_path)
+    2.8 % (2D), 9.8 % (3D) of its largest entry along this direction; 1 %
+    asked)."""
+    _, dem = packed
     f, n = dem.force, dem.n_own                  # (owned DOFs)
+    c = f.volumetric.c.copy()
     rng = np.random.default_rng(1)
     a = np.median(f.L0)
     v = np.zeros(dem.U.size)
@@ -75,8 +103,8 @@ def test_the_force_is_the_energys_gradient_and_linearises_to_the_assembled_tange
     assert np.abs(d[:n] - lin[:n]).max() < 1e-6 * np.abs(lin[:n]).max()
     f.volumetric.c[:] = 0.0
     without = (force(h * v) - force(-h * v)) / (2 * h)
+    f.volumetric.c[:] = c
     assert np.abs(without[:n] - lin[:n]).max() > 0.01 * np.abs(lin[:n]).max()
-    asm.destroy()
 
 
 def run(raw, tmp_path, name, n=None, sets=()):
