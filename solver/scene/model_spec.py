@@ -316,8 +316,10 @@ class LatticeSpec:
         "square: square lattice with diagonal bonds in 2D (nu = 1/3 plane stress, 1/4 plane "
         "strain), simple cubic with face diagonals in 3D (nu = 1/4); random: a seeded "
         "Poisson-disc packing of particles of radius spacing/2 (radius_spread), bonded to their "
-        "Delaunay neighbours within gap, E calibrated on a uniaxial test of the packing (nu about "
-        "0.33 plane stress, 0.25 plane strain and 3D; needs transition; docs/bonds.md)", "square")
+        "Delaunay neighbours within gap, E calibrated on a uniaxial test of the packing (central "
+        "bonds give nu about 0.33 plane stress, 0.25 plane strain and 3D; a larger nu adds a "
+        "volumetric many-body term calibrated to it, up to about 0.47 in 3D; needs transition; "
+        "docs/bonds.md)", "square")
     strength: Literal["bond", "packing"] = key(
         "what break_strain is: bond, each bond's critical strain; packing (kind random), the "
         "packing's uniaxial strain at its first break: each bond breaks at break_strain x the "
