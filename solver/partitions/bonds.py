@@ -42,6 +42,7 @@ import numpy as np
 from solver.model import strength
 from solver.petscutil import init, vec_on
 from solver.partitions.contact import KEY, Contact
+from solver.partitions.dilatation import Volumetric
 from solver.partitions.force import Force
 from solver.partitions.halo import ContactHalo
 
@@ -122,7 +123,6 @@ class BondForce(Force):
         self._u_last = None                        # held + bond ghosts at the last evaluation
         self.volumetric = None                     # the volumetric term (dilatation)
         if dilatation is not None:
-            from solver.partitions.dilatation import Volumetric
             self.volumetric = Volumetric(self, dilatation.c)
         self.contact = self.halo = None
         if contact is not None:
