@@ -116,7 +116,7 @@ def main():
     k = int(np.argmax(P))
     hondros = (np.sin(2 * ALPHA) - ALPHA) / (np.pi * R * T * ALPHA)
     sigma = P[k] * hondros
-    m = calibration.measure(2, 0.0, 1.0, SEED)
+    m = calibration.sampled(2, 0.0, 1.0, SEED)
     c = m.concentration
     estimate = E * EPS_C / (c * (1 + 3 * NU))
     after = P[(t > t[k]) & (t < t[k] + 5e-5)].min()

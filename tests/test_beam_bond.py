@@ -153,6 +153,22 @@ def test_a_cantilever_of_bonded_particles_follows_timoshenko_beam_theory():
     assert abs(tip / (P * L ** 3 / (3 * EI) + P * L / kGA) - 1) < 1e-6
 
 
+def test_a_packed_cantilever_bends_as_the_continuum_within_2_percent():
+    """A random packing 20 spacings deep and 160 long (seed 2, 2061 particles),
+    beam bonds calibrated to E and nu 0.25 (benchmarks/bench_cantilever.py):
+    clamped over the first spacing, loaded over the last, its tip deflection is
+    the same strip's of plane-stress quadrilaterals (Richardson from h = 1/2 and
+    1/4 spacing) within 2 % (measured 1.004; seeds 1-4: 0.985-1.004)."""
+    import sys
+
+    from conftest import ROOT
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from bench_cantilever import reference, tip_deflection
+    ref, change = reference(0.25, 20.0)
+    assert change < 1e-3
+    assert abs(tip_deflection(0.25, 20.0, 2)[2] / ref - 1) < 0.02
+
+
 def elastica(load):
     """Tip (deflection, shortening) / L of the inextensible cantilever under a
     tip load with P L^2 / EI = ``load``: theta'' = -load cos(theta), theta(0)

@@ -58,7 +58,7 @@ def test_the_disc_splits_along_its_loaded_diameter_at_the_estimated_load(disc):
     assert 0.5e-3 < t[k] < 0.99e-3
     assert P[(t > t[k]) & (t < t[k] + 5e-5)].min() < 0.5 * P[k]
     sigma = P[k] * (np.sin(2 * ALPHA) - ALPHA) / (np.pi * R * T * ALPHA)
-    c = calibration.measure(2, 0.0, 1.0, 1).concentration
+    c = calibration.sampled(2, 0.0, 1.0, 1).concentration
     estimate = 30.0e9 * 5.0e-4 / (c * (1 + 3 * 0.33))
     assert abs(sigma / estimate - 1) < 0.10, (sigma, estimate)
     b = b[b[:, 0] <= t[k] + 2e-5]                                  # the split
@@ -75,7 +75,7 @@ def test_the_block_fails_in_compression_at_the_estimated_stress(tmp_path):
     t, P, b = split(specimen(tmp_path, "compression_block"), 0.05)
     k = int(np.argmax(P))
     ucs = P[k] / (0.024 * T)
-    estimate = 30.0e9 * 5.0e-4 / calibration.measure(2, 0.0, 1.0, 1).lateral
+    estimate = 30.0e9 * 5.0e-4 / calibration.sampled(2, 0.0, 1.0, 1).lateral
     assert abs(ucs / estimate - 1) < 0.15, (ucs, estimate)
     assert np.interp(b[0, 0], t, P) > 0.8 * P[k]        # brittle: 99 % measured
     assert P[(t > t[k]) & (t < t[k] + 5e-5)].min() < 0.6 * P[k]

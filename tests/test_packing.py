@@ -60,13 +60,13 @@ def test_bonds_are_the_delaunay_edges_within_the_gap():
     assert i.size > 0.93 * ai.size                  # 94.7 %
 
 
-def uniaxial_bar(dim, spread, gap, seed, kappa, shear=0.0, bulk=0.0):
+def uniaxial_bar(dim, spread, gap, seed, kappa, shear=0.0, bulk=0.0, scale=1.0):
     """E and nu of a bar (4:1 in 2D, 3:1:1 in 3D) of a packing the calibration
     did not see, from its end force and the mean strains of its middle: a test
     by other means (forces on the gripped end, not the bond virial).
     ``shear`` psi > 0: 2D beam bonds (rotations free); ``bulk`` eta > 0: the
     volumetric term, c = eta kappa V n / n_full (E = 1, t = 1)."""
-    size = np.array([80.0, 20.0] if dim == 2 else [30.0, 10.0, 10.0])
+    size = scale * np.array([80.0, 20.0] if dim == 2 else [30.0, 10.0, 10.0])
     x, r = packing.poisson_disc(np.zeros(dim), size, 0.5, spread, seed)
     i, j = packing.neighbour_pairs(x, r, gap)
     k = packing.bond_stiffness(x, r, i, j, 1.0, 1.0, kappa)
@@ -180,7 +180,7 @@ def test_beam_bonds_calibrate_a_plane_packing_to_any_nu_up_to_a_third(kind, nu):
 
 
 def test_beam_bonds_refuse_a_nu_beyond_what_they_cover():
-    with pytest.raises(ValueError, match=r"cover nu 0 to 0\.34\d* in plane_stress; the material "
+    with pytest.raises(ValueError, match=r"cover nu 0 to 0\.3\d* in plane_stress; the material "
                                          r"has nu = 0\.4"):
         calibration.calibrate_beams(1.0, 0.4, "plane_stress", 0.2, 1.0, 0)
 
@@ -221,7 +221,7 @@ def test_strength_packing_scales_the_bonds_critical_strain_by_the_concentration(
     raw["model"]["lattice"]["strength"] = "packing"
     raw["output"] = {"file": str(tmp_path / "m.h5")}
     mdl = continuum.build(binding.bind(scene_mod.from_dict(raw)))
-    c = calibration.measure(2, 0.0, 1.0, 1).concentration
+    c = calibration.sampled(2, 0.0, 1.0, 1).concentration
     assert 1.3 < c < 1.8
     assert mdl.lattice.break_strain == 3.08e-3 * c
     line = refused("configs/plate_fracture.yaml", ["model.lattice.strength=packing"], tmp_path)
@@ -235,11 +235,14 @@ def test_the_volumetric_term_calibrates_a_packing_to_nu_above_the_central_bonds(
     calibration finds the factor eta that gives nu on the sample (to 1e-4) and
     kappa for E; a bar packed with another seed, tested by its end force, has
     E within 5 % and nu within 0.03 of the target (plane strain: in-plane
-    E / (1 - nu^2), nu / (1 - nu)): aluminium's 0.33 in 3D, 0.4 in 2D."""
+    E / (1 - nu^2), nu / (1 - nu)): aluminium's 0.33 in 3D, 0.4 in 2D.  The 2D
+    bar is 160 x 40 spacings: at 80 x 20 the bar's own nu scatters by +-0.03
+    from seed to seed (central bonds, seeds 5-8: 0.325-0.366 against the
+    calibrated 0.335; 160 x 40: 0.337-0.348)."""
     kappa, eta, m = calibration.calibrate_bulk(1.0, nu, kind, 0.2, 1.0, 0)
     in_plane = nu / (1 - nu) if kind == "plane_strain" else nu
     assert abs(m.nu - in_plane) < 1e-4 and eta > 0
-    E, nu_bar = uniaxial_bar(dim, 0.2, 1.0, 5, kappa, bulk=eta)
+    E, nu_bar = uniaxial_bar(dim, 0.2, 1.0, 5, kappa, bulk=eta, scale=2.0 if dim == 2 else 1.0)
     target = 1.0 / (1 - nu ** 2) if kind == "plane_strain" else 1.0
     assert abs(E / target - 1) < 0.05, (E, target)
     assert abs(nu_bar - in_plane) < 0.03, (nu_bar, in_plane)

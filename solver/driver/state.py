@@ -179,6 +179,8 @@ def restore(data: dict, parts, scheme, guard):
             p.force.released = float(work[2]) if first else 0.0
         p.force.restore_contacts(saved.get("contacts", ()))
     scheme.synchronise()
+    for p in parts:
+        p.force.resume(p)
     scheme.restore_memory(data.get("scheme") or {})
     if guard is not None:
         guard.restore(data["guard"])

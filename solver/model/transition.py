@@ -332,7 +332,7 @@ def _random(spec, pts, band, region, lo, hi):
     note = (f"random packing: {ids.size} particles (radius {0.5 * lat.spacing:g} m, spread "
             f"{spread:g}, seed {lat.seed}), {i.size} bonds (gap {gap:g}; "
             f"{2 * i.size / ids.size:.2f} per particle), E calibrated (bond factor {kappa:.4g}) "
-            f"on a uniaxial test of {measured.particles} particles, which gives nu {nu:.3f}; its "
+            f"on {calibration.tests(dim, measured)}, which gives nu {nu:.3f}; its "
             f"most stretched bond carries {measured.concentration:.2f} x the applied strain")
     if beam:
         note += (f"; beam bonds (bending k_b = {psi:.4g} k L^2 / 12, calibrated to nu "
@@ -354,7 +354,7 @@ def _random(spec, pts, band, region, lo, hi):
 def _above(mat, dim, spread, gap, seed) -> bool:
     """Whether nu lies above what the packing's central bonds represent by more
     than calibration.BULK_MIN (the volumetric term then makes up the rest)."""
-    m = calibration.measure(dim, float(spread), float(gap), int(seed))
+    m = calibration.sampled(dim, float(spread), float(gap), int(seed))
     represents = m.nu / (1.0 + m.nu) if mat.kind == "plane_strain" else m.nu
     return mat.nu > represents + calibration.BULK_MIN
 

@@ -405,6 +405,13 @@ class BondForce(Force):
         else:
             out_vec.getArray()[:] = out.ravel()
 
+    def resume(self, part):
+        """After a restore: the restored displacements stand for the last
+        evaluation's (the uninterrupted run evaluated the force there last), so
+        a bond breaking at the first evaluation releases the same mean energy
+        as without the restart (collective: the ghosts' displacements)."""
+        self._remember(self.displacements(part.u))
+
     def _remember(self, u):
         """Keep the bonded particles' displacements ``u`` of this evaluation
         (the next break's earlier state)."""

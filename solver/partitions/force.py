@@ -36,6 +36,10 @@ class Force:
     def restore_broken(self, rows):
         """Take the broken bonds of a checkpoint (nothing breaks here)."""
 
+    def resume(self, part):
+        """After a restore of ``part``'s state (collective over its pieces):
+        whatever the force keeps of its last evaluation (nothing here)."""
+
     def contact_history(self):
         """The contacts' shear histories for a checkpoint (None: none kept)."""
         return None
