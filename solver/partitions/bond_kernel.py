@@ -24,7 +24,7 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
+def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, P):
     n_snap, cur = 0, -1
     fx = fy = 0.0
     for b in range(i.size):
@@ -46,8 +46,8 @@ def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
             n_snap += 1
             continue
         pull = k[b] * stretch
-        if tension is not None:             # (None: compiled without this line)
-            pull += tension[b]
+        if P is not None:                   # (None: compiled without this line)
+            pull += (P[p] + P[q]) / L0[b]
         s = pull / L if L > 0 else 0.0
         fx += s * dx
         fy += s * dy
@@ -61,7 +61,7 @@ def _loop2(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
+def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, P):
     n_snap, cur = 0, -1
     fx = fy = fz = 0.0
     for b in range(i.size):
@@ -86,8 +86,8 @@ def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
             n_snap += 1
             continue
         pull = k[b] * stretch
-        if tension is not None:             # (None: compiled without this line)
-            pull += tension[b]
+        if P is not None:                   # (None: compiled without this line)
+            pull += (P[p] + P[q]) / L0[b]
         s = pull / L if L > 0 else 0.0
         fx += s * dx
         fy += s * dy
@@ -104,15 +104,66 @@ def _loop3(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension):
 
 
 def bond_forces(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, accumulate,
-                tension=None) -> int:
+                P=None) -> int:
     """out[rows, dim] (+)= the bond forces at displacements ``u`` (rest
-    separations ``dX`` per bond), each bond pulling with k (L - L0) plus its
-    ``tension`` (the volumetric term's, :mod:`solver.partitions.dilatation`;
-    None: none); returns how many bonds broke (their indices in ``snapped``)."""
+    separations ``dX`` per bond), each bond (p, q) pulling with k (L - L0)
+    plus the volumetric term's tension (P_p + P_q) / L0 (``P`` per local
+    particle, :mod:`solver.partitions.dilatation`; None: none); returns how
+    many bonds broke (their indices in ``snapped``)."""
     if not accumulate:
         out[:] = 0.0
     loop = _loop2 if u.shape[1] == 2 else _loop3
-    return loop(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, tension)
+    return loop(dX, u, i, j, k, L0, alive, limit, out, rows, snapped, P)
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def dilatation_sums(dX, u, i, j, L0, alive, limit, rows, total, count, snapped, coef, P) -> int:
+    """One pass over the bonds for the volumetric term: every live bond's
+    strain (L - L0) / L0 added to ``total`` and 1 to ``count`` at its ends
+    below ``rows`` (zeroed here); a live bond beyond its critical strain
+    counts as broken (not added, its index written to ``snapped``, alive
+    left to the caller, which records the break).  Then P = coef (dim /
+    count)^2 total of those rows.  Returns how many broke.  Bonds come
+    sorted by their first particle: its sums stay in registers over its run."""
+    total[:] = 0.0
+    count[:] = 0.0
+    three = dX.shape[1] == 3
+    n_snap, cur = 0, -1
+    acc = live = 0.0
+    for b in range(i.size):
+        p = i[b]
+        if p != cur:
+            if 0 <= cur < rows:
+                total[cur] += acc
+                count[cur] += live
+            cur, acc, live = p, 0.0, 0.0
+        if not alive[b]:
+            continue
+        q = j[b]
+        dx, dy = dX[b, 0] + (u[q, 0] - u[p, 0]), dX[b, 1] + (u[q, 1] - u[p, 1])
+        L2 = dx * dx + dy * dy
+        if three:
+            dz = dX[b, 2] + (u[q, 2] - u[p, 2])
+            L2 += dz * dz
+        stretch = np.sqrt(L2) - L0[b]
+        if stretch > limit[b] * L0[b]:
+            snapped[n_snap] = b
+            n_snap += 1
+            continue
+        s = stretch / L0[b]
+        acc += s
+        live += 1.0
+        if q < rows:
+            total[q] += s
+            count[q] += 1.0
+    if 0 <= cur < rows:
+        total[cur] += acc
+        count[cur] += live
+    dim = 3.0 if three else 2.0
+    for r in range(rows):
+        w = dim / max(count[r], 1.0)
+        P[r] = coef[r] * w * w * total[r]
+    return n_snap
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)

@@ -56,8 +56,9 @@ class BondForce(Force):
     def __init__(self, part, lattice_block, linear_op, other_blocks, tangent, break_strain,
                  contact=None, heat=None, node_mass=None, weibull=None, dilatation=None):
         # lazy: numba (about 1 s to import) loads only when a bonded partition is built
-        from solver.partitions.bond_kernel import bond_forces, rest_length_work
+        from solver.partitions.bond_kernel import bond_forces, dilatation_sums, rest_length_work
         self._bond_forces, self._rest_length_work = bond_forces, rest_length_work
+        self._dilatation_sums = dilatation_sums
         P = init()
         self.part = part
         self.operator = linear_op            # the other elements' -K (None if there are none)
@@ -292,10 +293,10 @@ class BondForce(Force):
         if self.operator is not None:
             self.operator.mult(u_vec, out_vec)
         out = out_vec.getArray().reshape(n, self.dim)
-        tension = self._tensions(u) if self.volumetric is not None else None
+        P = self._pressures(u) if self.volumetric is not None else None
         snapped = self._bond_forces(self.dX, u, self.i, self.j, self.k, self.L0, self.alive,
                                     self.limit, out, n, self._snapped, self.operator is not None,
-                                    tension)
+                                    P)
         if snapped:
             which = self._snapped[:snapped].copy()
             self._break(which, u, np.linalg.norm(self.separations(u, which), axis=1)
@@ -304,17 +305,15 @@ class BondForce(Force):
         if self.contact is not None:
             self._add_contact(u_vec, u, out)
 
-    def _tensions(self, u):
-        """The volumetric term's bond tensions at displacements ``u``; the bonds
-        beyond their critical strain break first, the term's energy they take
-        with them counted as released (collective when split)."""
-        L = np.linalg.norm(self.separations(u), axis=1)
-        stretch = L - self.L0
-        snap = self.alive & (stretch > self.limit * self.L0)
-        if snap.any():
-            which = np.flatnonzero(snap)
-            self._release_volumetric(L, u, lambda: self._break(which, u, stretch[which]))
-        return self.volumetric.tensions(L)
+    def _pressures(self, u):
+        """The volumetric term's P at displacements ``u``; the bonds beyond
+        their critical strain break first, the term's energy they take with
+        them counted as released (collective when split)."""
+        def on_break(which):
+            L = np.linalg.norm(self.separations(u), axis=1)
+            stretch = L[which] - self.L0[which]
+            self._release_volumetric(L, u, lambda: self._break(which, u, stretch))
+        return self.volumetric.pressures(u, on_break)
 
     def _release_volumetric(self, L, u, brk):
         """Break bonds by calling ``brk``; the volumetric energy the breaks take
@@ -389,7 +388,8 @@ class BondForce(Force):
         self._remember(u)
         pull = self.k * stretch
         if self.volumetric is not None:
-            pull = pull + self.volumetric.tensions(L)
+            P = self.volumetric.pressures(u, lambda which: None)   # (broken above)
+            pull = pull + (P[self.i] + P[self.j]) / self.L0
         scale = np.where(self.alive, pull / np.where(L > 0, L, 1.0), 0.0)
         f = scale[:, None] * d                                     # force on i (towards j)
         n, dim = self.n_held, self.dim
