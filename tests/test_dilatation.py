@@ -5,14 +5,14 @@ the assembled tangent, the pulse through the bar, breaking with the energy
 audit closed, and 1 vs 2 ranks."""
 from __future__ import annotations
 
-import copy
 import re
 
 import h5py
 import numpy as np
 import pytest
 
-from conftest import raw_scene, run_cli, write_scene
+from conftest import raw_scene
+from test_beam_scene import against_the_bar, run
 from test_bonds import dem_of, lattice_force
 
 
@@ -108,18 +108,6 @@ def test_the_force_is_the_energys_gradient_and_linearises_to_the_assembled_tange
     assert np.abs(without[:n] - lin[:n]).max() > 0.01 * np.abs(lin[:n]).max()
 
 
-def run(raw, tmp_path, name, n=None, sets=()):
-    raw = copy.deepcopy(raw)
-    raw["output"] = {"file": str(tmp_path / f"{name}.h5"), "progress": 0, "energy_every": 10,
-                     "fields": {"every": 100000}}
-    args = [write_scene(tmp_path / f"{name}.yaml", raw)]
-    for item in sets:
-        args += ["--set", item]
-    proc = run_cli(args, n=n, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    return tmp_path / f"{name}.h5", proc.stdout + proc.stderr
-
-
 def test_the_pulse_crosses_a_packing_of_nu_0_4_as_through_the_bar(tmp_path):
     """nu 0.4 (the central bonds give 0.33): the log states the term and its
     factor, every probe's history is the 1D bar wave's within 1 % (2-norm;
@@ -131,13 +119,7 @@ def test_the_pulse_crosses_a_packing_of_nu_0_4_as_through_the_bar(tmp_path):
     assert re.search(r"a volumetric term on every particle's bonds \(c = 0\.2\d* kappa E V n / 6",
                      log), log
     assert "which gives nu 0.400" in log, log
-    err = []
-    with h5py.File(path) as f:
-        e = {k: f[f"energy/{k}"][()] for k in f["energy"]}
-        for p in "ABC":
-            u, ref = f[f"probes/{p}/displacement"][()], f[f"probes/{p}/reference_displacement"][()]
-            ok = np.isfinite(ref)
-            err.append(np.linalg.norm(u[ok] - ref[ok]) / np.linalg.norm(ref[ok]))
+    err, _, e = against_the_bar(path)
     assert max(err) < 0.01, err
     W = e["external_work"]
     audit = np.abs(e["kinetic"] + e["strain"] + e["dissipated"] - W).max() / W.max()
