@@ -245,3 +245,22 @@ def test_the_volumetric_term_calibrates_a_packing_to_nu_above_the_central_bonds(
     target = 1.0 / (1 - nu ** 2) if kind == "plane_strain" else 1.0
     assert abs(E / target - 1) < 0.05, (E, target)
     assert abs(nu_bar - in_plane) < 0.03, (nu_bar, in_plane)
+
+
+def test_the_volumetric_calibration_keeps_its_bracket(monkeypatch):
+    """A packing whose lambda/mu rises convexly with eta (root at eta = 900,
+    where the secant overshoots past BULK_LIMIT): calibrate_bulk bisects within
+    the bracket it has found and returns eta 900 to 1e-4 in nu; a nu that eta =
+    BULK_LIMIT does not reach is refused, naming the largest nu found."""
+    from solver.model.calibration import Measured
+
+    def sampled(dim, spread, gap, seed, shear=0.0, bulk=0.0):
+        x = 0.5 + 1.0 * (bulk / 900.0) ** 3          # lambda / mu, plane stress
+        nu = x / (2.0 + x)
+        return Measured(1.0, nu, 100, 300, 6.0, 1.5, 0.7)
+    monkeypatch.setattr(calibration, "sampled", sampled)
+    goal = 1.5 / 3.5                                  # lambda / mu = 1.5 at eta = 900
+    kappa, eta, m = calibration.calibrate_bulk(1.0, goal, "plane_stress", 0.0, 1.0, 0)
+    assert abs(m.nu - goal) < 1e-4 and abs(eta / 900.0 - 1) < 1e-3
+    with pytest.raises(ValueError, match=r"reach nu 0\.48\d* at most in plane_stress"):
+        calibration.calibrate_bulk(1.0, 0.8, "plane_stress", 0.0, 1.0, 0)

@@ -186,8 +186,9 @@ def _bond_factor(dim: int, spread: float, gap: float, seed: int):
 def _solve_bulk(rows, cols, vals, n, fixed, value, factor):
     """As :func:`_solve`, by conjugate gradients preconditioned with the
     central bonds' ``factor``: the volumetric term stiffens only the
-    dilatational modes, so about 20 iterations reach 1e-12 (one LU of
-    the wider matrix took 3 x longer than the whole solve)."""
+    dilatational modes: 15 iterations reach 1e-12 at eta = 1, 100-150 at
+    eta = 100-1000 (one LU of the wider matrix took 3 x longer than a whole
+    solve at small eta)."""
     from scipy.sparse import coo_matrix  # lazy: scipy loads only for a random packing
     from scipy.sparse.linalg import LinearOperator, cg  # lazy: as above
     K = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
@@ -200,7 +201,8 @@ def _solve_bulk(rows, cols, vals, n, fixed, value, factor):
     M = LinearOperator(A.shape, factor.solve)
     u[free], info = cg(A, rhs, x0=factor.solve(rhs), rtol=1e-12, maxiter=500, M=M)
     if info:
-        raise ArithmeticError(f"the calibration's solve did not converge ({info} iterations)")
+        raise ValueError(f"the calibration's solve with the volumetric term did not converge in "
+                         f"{info} iterations")
     return u
 
 
@@ -374,9 +376,11 @@ def calibrate_bulk(E: float, nu: float, kind: str, spread: float, gap: float,
     """(kappa, eta, the packing measured at kappa = 1 and that eta) of central
     bonds with the volumetric term (:mod:`solver.model.dilatation`): eta sets
     nu above the central bonds' own, found by the secant method on lambda/mu
-    (nearly linear in eta) to BULK_STEP in nu, one measured test each; kappa
-    then sets E.  ValueError for a nu the term cannot reach (at or beyond the
-    limit: 1 in plane stress, 1/2 in plane strain and 3D)."""
+    (nearly linear in eta) to BULK_STEP in nu, one measured test each,
+    bisecting where a secant step leaves the bracket found so far; kappa then
+    sets E.  ValueError for a nu the term cannot reach (at or beyond the limit:
+    1 in plane stress, 1/2 in plane strain and 3D, or not reached at eta =
+    BULK_LIMIT)."""
     dim = 3 if kind == "solid" else 2
     in_plane = nu / (1.0 - nu) if kind == "plane_strain" else nu
     target = E / (1.0 - nu ** 2) if kind == "plane_strain" else E
@@ -395,19 +399,26 @@ def calibrate_bulk(E: float, nu: float, kind: str, spread: float, gap: float,
     x, r, i, j, *_ = _system(dim, spread, gap, seed)
     fraction = dilatation.weights(r, i, j, dim).sum() / SIDE[dim] ** dim
     mu = m0.E / (2.0 * (1.0 + m0.nu))
-    a, b = 0.0, -f0 * mu / fraction
-    fa, best = f0, m0.nu
-    for _ in range(30):
-        if not 0.0 < b <= BULK_LIMIT:
-            break
+    lo, hi = 0.0, None                 # eta below and above the goal (lambda/mu rises with eta)
+    a, fa, b = 0.0, f0, -f0 * mu / fraction
+    best = m0.nu
+    for _ in range(60):
+        if b is None or not lo < b <= (BULK_LIMIT if hi is None else hi):
+            b = 0.5 * (lo + hi) if hi is not None else BULK_LIMIT    # the secant left the bracket
         fb, m = ratio(b)
         best = max(best, m.nu)
         if abs(m.nu - in_plane) < BULK_STEP:
+            _bond_factor.cache_clear()     # (its LU: 230 MB in 3D)
             return target / E / m.E, b, m
-        a, fa, b = b, fb, b - fb * (b - a) / (fb - fa)
-    if best < in_plane:                    # the packing's own relaxation caps what eta gives
-        m = ratio(BULK_LIMIT)[1]
-        best = max(best, m.nu)
+        if fb < 0.0:
+            lo = b
+            if b >= BULK_LIMIT:            # the packing's own relaxation caps what eta gives
+                break
+        else:
+            hi = b
+        a, fa, b = b, fb, (b - fb * (b - a) / (fb - fa) if fb != fa else None)
+    _bond_factor.cache_clear()
+
     def plain(v):
         return v / (1.0 + v) if kind == "plane_strain" else v
     raise ValueError(f"central bonds with the volumetric term reach nu {plain(best):.3g} at most "

@@ -270,7 +270,8 @@ class BondForce(Force):
 
     def virial(self, u, bonds, c) -> float:
         """sum f_c d_c over ``bonds`` at displacements ``u`` (of
-        :meth:`displacements`): f = k (L - L0) d / L, live bonds only."""
+        :meth:`displacements`): f = (k (L - L0) + T) d / L, live bonds only, T
+        the volumetric term's tension at the last force evaluation (0 without)."""
         d = self.separations(u, bonds)
         L = np.linalg.norm(d, axis=1)
         tension = 0.0
