@@ -151,3 +151,55 @@ def test_bonds_break_with_the_term_the_same_on_one_and_two_ranks(tmp_path):
     assert np.array_equal(broken2[:, [0, -2, -1]], broken[:, [0, -2, -1]])
     assert abs(released2 / released - 1) < 1e-10
     assert np.abs(e2["strain"] - e["strain"]).max() < 1e-10 * np.abs(e["strain"]).max()
+
+
+def test_damping_leaves_the_broken_bonds_shares_of_the_stars_out(tmp_path):
+    """With a third of the bonds broken: -K0 v with release_broken applied (what
+    stiffness-proportional damping takes) equals minus the stiffness of the
+    live bonds, the other elements and every particle's star over its live
+    bonds alone (StarStiffness of solver/model/dilatation.py, assembled here
+    from the model) times v, to 1e-12 of its largest entry."""
+    from scipy.sparse import coo_matrix
+
+    from solver.model.continuum import BondStiffness
+    from solver.model.dilatation import StarStiffness
+    from solver.model.dofmap import DofMap
+    from solver.partitions.assembly import triplets
+    asm, dem = dem_of(bar(break_strain=1.0), tmp_path)
+    f, lay = dem.force, dem.layout
+    rng = np.random.default_rng(4)
+    f.alive[:] = rng.random(len(f.alive)) > 0.33
+    v = rng.standard_normal(dem.U.size)
+    dem.V[:] = v
+    f.tangent().mult(dem.v, dem.r)
+    f.release_broken(dem.v, dem.r)
+    got = dem.R.copy()
+    # the same operator from the model: live bonds, live stars, the other elements
+    held = lay.held
+    dead = {(int(a), int(b)) for a, b in f.nodes[~f.alive]}
+    live_blocks = []
+    for conn, K in asm.model.bond_blocks(held):
+        if isinstance(K, StarStiffness):
+            continue
+        if isinstance(K, BondStiffness):
+            keep = np.array([(int(a), int(b)) not in dead for a, b in conn])
+            conn, K = conn[keep], BondStiffness(K.points, conn[keep], K.k[keep])
+        live_blocks.append((conn, K))
+    c = asm.model.lattice.dilatation.c
+    ends = np.concatenate([f.nodes[f.alive], f.nodes[f.alive][:, ::-1]])
+    for p in np.flatnonzero(c[held] > 0):
+        node = held[p]
+        nbrs = np.sort(ends[ends[:, 0] == node, 1])
+        if nbrs.size:
+            live_blocks.append((np.concatenate([[node], nbrs])[None, :],
+                                StarStiffness(asm.model.points, np.array([node]), nbrs[None, :],
+                                              c[[node]])))
+    local = np.full(asm.model.n_nodes, -1)
+    local[held] = np.arange(held.size)
+    rows, cols, vals = triplets([(local[cn], K) for cn, K in live_blocks],
+                                DofMap.uniform(held.size, 2))
+    K = coo_matrix((vals, (rows, cols)), shape=(v.size, v.size)).tocsr()
+    want = -(K @ v)
+    n = dem.n_own
+    assert np.abs(got[:n] - want[:n]).max() < 1e-12 * np.abs(want[:n]).max()
+    asm.destroy()

@@ -336,9 +336,12 @@ class BondForce(Force):
         ``out`` holding -K0 v (the tangent at rest times the velocities, what
         stiffness-proportional damping takes), it then holds what the live
         bonds and the other elements give, so that a crack's faces are not
-        damped as if still bonded.  Collective on a partition split over
-        ranks (the ghosts' velocities), every piece at once."""
+        damped as if still bonded; with the volumetric term its stars too
+        (:meth:`Volumetric.release_broken`).  Collective on a partition split
+        over ranks (the ghosts' velocities), every piece at once."""
         v = self._velocities(v_vec)
+        if self.volumetric is not None:         # (collective: before any piece returns)
+            self.volumetric.release_broken(v, out_vec.getArray().reshape(self.n_held, self.dim))
         gone = np.flatnonzero(~self.alive)
         if not gone.size:
             return

@@ -38,6 +38,7 @@ class Volumetric:
         self._total = np.zeros(force.n_held)        # (dilatation_sums' sums and counts)
         self._count = np.zeros(force.n_held)
         self._scatter = None
+        self._rest = None                           # d / |d|^2 of every bond at rest
         part = force.part
         if part.comm.size > 1 or force.n_ghosts:     # collective: every piece at once
             n_local, n_global = part.u.getSizes()
@@ -90,6 +91,43 @@ class Volumetric:
             self._scatter.scatter(self._vec, self._g_vec, *self._modes)
             self.P[n:] = self._g
         return self.P
+
+    def release_broken(self, v, out):
+        """out += (K_full - K_live) v of the stars at rest: ``out`` holding -K0 v
+        (K0 with every particle's whole star, as assembled), it then holds the
+        stars over the live bonds, so a broken bond's share of its ends' stars
+        no longer damps across the crack.  Per bond (i, j) at rest, g = d / |d|^2:
+        the stars' K v puts (P_i + P_j) g on j and minus that on i, P_p = c_p
+        (dim / m_p)^2 sum over p's bonds of g . (v_j - v_i), m_p its bond count
+        (whole: all, live: the live ones).  Collective when split (the ghosts'
+        P, two scatters), every piece at every call."""
+        f = self.force
+        n = f.n_held
+        if self._rest is None:
+            self._rest = f.dX / np.sum(f.dX * f.dX, axis=1)[:, None]
+        g = self._rest
+        rate = np.einsum("bc,bc->b", g, v[f.j, :f.space] - v[f.i, :f.space])
+        live = f.alive.astype(float)
+        P = []
+        for w in (np.ones(len(rate)), live):
+            total = (np.bincount(f._ri, (rate * w)[f._fi], minlength=n) +
+                     np.bincount(f._rj, (rate * w)[f._fj], minlength=n))
+            count = np.bincount(f._ri, w[f._fi], minlength=n) + \
+                np.bincount(f._rj, w[f._fj], minlength=n)
+            Pw = np.zeros(len(self.P))
+            Pw[:n] = self.c[:n] * (f.space / np.maximum(count, 1.0)) ** 2 * total
+            if self._scatter is not None:
+                self._own[:] = 0.0
+                self._own[:self.n_owned] = Pw[:self.n_owned]
+                self._scatter.scatter(self._vec, self._g_vec, *self._modes)
+                Pw[n:] = self._g
+            P.append(Pw)
+        whole, kept = P
+        delta = (whole[f.i] + whole[f.j]) - live * (kept[f.i] + kept[f.j])
+        push = delta[:, None] * g
+        for c in range(f.space):
+            out[:, c] += (np.bincount(f._rj, push[f._fj, c], minlength=n) -
+                          np.bincount(f._ri, push[f._fi, c], minlength=n))
 
     def last_tensions(self, bonds) -> np.ndarray:
         """The tensions (P_i + P_j) / L0 of ``bonds`` at the last
