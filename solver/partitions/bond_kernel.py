@@ -184,3 +184,53 @@ def rest_length_work(dX, u, i, j, k, L0_old, L0_new, alive, share) -> float:
         L = np.sqrt(L2)
         total += share[b] * 0.5 * k[b] * ((L - L0_new[b]) ** 2 - (L - L0_old[b]) ** 2)
     return total
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def star_rates(g, v, i, j, alive, rows, coef, whole, live, tw, tl, cw, cl):
+    """For the damping of the volumetric term's stars
+    (:meth:`solver.partitions.dilatation.Volumetric.release_broken`): every
+    bond's rate g . (v_j - v_i) (g = d / |d|^2 at rest) summed at its ends
+    below ``rows`` over all bonds and over the live ones, then ``whole`` and
+    ``live`` = coef (dim / count)^2 sum of those rows (scratch tw, tl, cw, cl)."""
+    tw[:] = 0.0
+    tl[:] = 0.0
+    cw[:] = 0.0
+    cl[:] = 0.0
+    dim = g.shape[1]
+    for b in range(i.size):
+        p, q = i[b], j[b]
+        rate = 0.0
+        for c in range(dim):
+            rate += g[b, c] * (v[q, c] - v[p, c])
+        for e in (p, q):
+            if e < rows:
+                tw[e] += rate
+                cw[e] += 1.0
+                if alive[b]:
+                    tl[e] += rate
+                    cl[e] += 1.0
+    for r in range(rows):
+        a = dim / max(cw[r], 1.0)
+        whole[r] = coef[r] * a * a * tw[r]
+        a = dim / max(cl[r], 1.0)
+        live[r] = coef[r] * a * a * tl[r]
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False)
+def star_release(g, i, j, alive, whole, live, out, rows):
+    """out += (K_whole - K_live) v of the stars: per bond (p, q) the difference
+    (whole_p + whole_q) - [live] (live_p + live_q) times g on q, minus on p."""
+    dim = g.shape[1]
+    for b in range(i.size):
+        p, q = i[b], j[b]
+        delta = whole[p] + whole[q]
+        if alive[b]:
+            delta -= live[p] + live[q]
+        if delta == 0.0:
+            continue
+        for c in range(dim):
+            if q < rows:
+                out[q, c] += delta * g[b, c]
+            if p < rows:
+                out[p, c] -= delta * g[b, c]

@@ -101,33 +101,22 @@ class Volumetric:
         (dim / m_p)^2 sum over p's bonds of g . (v_j - v_i), m_p its bond count
         (whole: all, live: the live ones).  Collective when split (the ghosts'
         P, two scatters), every piece at every call."""
+        from solver.partitions.bond_kernel import star_rates, star_release  # lazy: numba's, as the force's
         f = self.force
         n = f.n_held
         if self._rest is None:
-            self._rest = f.dX / np.sum(f.dX * f.dX, axis=1)[:, None]
-        g = self._rest
-        rate = np.einsum("bc,bc->b", g, v[f.j, :f.space] - v[f.i, :f.space])
-        live = f.alive.astype(float)
-        P = []
-        for w in (np.ones(len(rate)), live):
-            total = (np.bincount(f._ri, (rate * w)[f._fi], minlength=n) +
-                     np.bincount(f._rj, (rate * w)[f._fj], minlength=n))
-            count = np.bincount(f._ri, w[f._fi], minlength=n) + \
-                np.bincount(f._rj, w[f._fj], minlength=n)
-            Pw = np.zeros(len(self.P))
-            Pw[:n] = self.c[:n] * (f.space / np.maximum(count, 1.0)) ** 2 * total
-            if self._scatter is not None:
+            self._rest = np.ascontiguousarray(f.dX / np.sum(f.dX * f.dX, axis=1)[:, None])
+            self._rates = tuple(np.zeros(len(self.P)) for _ in range(2)) + \
+                tuple(np.zeros(n) for _ in range(4))
+        whole, live, *scratch = self._rates
+        star_rates(self._rest, v, f.i, f.j, f.alive, n, self.c, whole, live, *scratch)
+        if self._scatter is not None:
+            for P in (whole, live):
                 self._own[:] = 0.0
-                self._own[:self.n_owned] = Pw[:self.n_owned]
+                self._own[:self.n_owned] = P[:self.n_owned]
                 self._scatter.scatter(self._vec, self._g_vec, *self._modes)
-                Pw[n:] = self._g
-            P.append(Pw)
-        whole, kept = P
-        delta = (whole[f.i] + whole[f.j]) - live * (kept[f.i] + kept[f.j])
-        push = delta[:, None] * g
-        for c in range(f.space):
-            out[:, c] += (np.bincount(f._rj, push[f._fj, c], minlength=n) -
-                          np.bincount(f._ri, push[f._fi, c], minlength=n))
+                P[n:] = self._g
+        star_release(self._rest, f.i, f.j, f.alive, whole, live, out, n)
 
     def last_tensions(self, bonds) -> np.ndarray:
         """The tensions (P_i + P_j) / L0 of ``bonds`` at the last
