@@ -413,8 +413,13 @@ class BondForce(Force):
         """After a restore: the restored displacements stand for the last
         evaluation's (the uninterrupted run evaluated the force there last), so
         a bond breaking at the first evaluation releases the same mean energy
-        as without the restart (collective: the ghosts' displacements)."""
-        self._remember(self.displacements(part.u))
+        as without the restart, and the volumetric term's P (what stress
+        probes read before the next evaluation) is that of the restored state
+        (collective: the ghosts' displacements and P)."""
+        u = self.displacements(part.u)
+        self._remember(u)
+        if self.volumetric is not None:
+            self.volumetric.pressures(u, lambda which: None)   # (breaks: at the next evaluation)
 
     def _remember(self, u):
         """Keep the bonded particles' displacements ``u`` of this evaluation
