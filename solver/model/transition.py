@@ -172,7 +172,7 @@ def build(spec, mesh) -> Transition:
     nodes = np.unique(np.concatenate([band.nodes, region.nodes]))
     lo, hi = pts[nodes].min(axis=0), pts[nodes].max(axis=0)
     sites = (_random if lat.kind == "random" else _square)(spec, pts, band, region, lo, hi)
-    points, mass, bi, bj, bk, band_cell, band_w, kept, note, concentration, kb, radii, c = sites
+    points, mass, bi, bj, bk, band_cell, band_w, kept, note, concentration, kb, radii, bulk = sites
     is_band = kept & (band_cell >= 0)
     is_core = kept & ~is_band
     empty = _empty_cells(pts, band.cells, band_cell[is_band], points[is_band])
@@ -214,9 +214,8 @@ def build(spec, mesh) -> Transition:
                       emb, points[band_ids], mass[band_ids], fe_cells, dict(band.cells), a, note,
                       concentration, None if kb is None else kb[cc],
                       None if radii is None else radii[core_ids],
-                      None if c is None else c[core_ids] * dilatation.counts(
-                          bonds[0] - n_mesh, bonds[1] - n_mesh, core_ids.size) /
-                      dilatation.FULL[dim])
+                      None if bulk is None else bulk * dilatation.weights(
+                          radii[core_ids], bonds[0] - n_mesh, bonds[1] - n_mesh, dim, mat.depth))
 
 
 def _carried_bonds(points, bi, bj, bk, is_band, is_core, band_no, model_id, b_nodes, b_w):
@@ -307,13 +306,13 @@ def _random(spec, pts, band, region, lo, hi):
                          "this mesh is 3D")
     psi = eta = 0.0
     try:
+        bulk = not beam and _above(mat, dim, spread, gap, lat.seed)
         kappa, measured = calibration.calibrate(E, mat.nu, mat.kind, spread, gap, lat.seed,
-                                                check=not beam and not _above(mat, dim, spread,
-                                                                              gap, lat.seed))
+                                                check=not beam and not bulk)
         if beam:
             kappa, psi, measured = calibration.calibrate_beams(E, mat.nu, mat.kind, spread, gap,
                                                                lat.seed)
-        elif _above(mat, dim, spread, gap, lat.seed):
+        elif bulk:
             kappa, eta, measured = calibration.calibrate_bulk(E, mat.nu, mat.kind, spread, gap,
                                                               lat.seed)
     except calibration.Floppy as e:
@@ -337,10 +336,7 @@ def _random(spec, pts, band, region, lo, hi):
     if beam:
         note += (f"; beam bonds (bending k_b = {psi:.4g} k L^2 / 12, calibrated to nu "
                  f"{mat.nu:g}), particles rotating with inertia 1/2 m r^2")
-    c = None
     if eta:
-        c = np.zeros(len(points))
-        c[ids] = eta * kappa * E * dilatation.volumes(radii[ids], dim, mat.depth)   # (x n_p / n_full)
         note += (f"; a volumetric term on every particle's bonds (c = {eta:.4g} kappa E V n / "
                  f"{dilatation.FULL[dim]:g}, "
                  f"calibrated to nu {mat.nu:g})")
@@ -348,7 +344,7 @@ def _random(spec, pts, band, region, lo, hi):
         note += (f"; bonds break at {measured.concentration:.3f} x break_strain (strength: "
                  "packing)")
     return (points, mass, ids[i], ids[j], bk, band_cell, band_w, kept, note,
-            measured.concentration, kb, radii, c)
+            measured.concentration, kb, radii, eta * kappa * E or None)
 
 
 def _above(mat, dim, spread, gap, seed) -> bool:
