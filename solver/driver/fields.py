@@ -64,7 +64,7 @@ class FieldWriter(Observer):
         self.dof = mdl.dof
         self.dim = mdl.points.shape[1]
         self.shell = mdl.shells is not None      # 6 DOFs: u and rotations
-        self.rotating = mdl.rotary is not None   # 2D particles: u_x, u_y, theta
+        self.rotating = mdl.rotary is not None   # particles: u_x, u_y, theta; 3D: u, theta
         self.n = mdl.n_nodes
         self.writers = []
         self.n_open = 0
@@ -148,6 +148,8 @@ class FieldWriter(Observer):
         point = {"displacement": u[:, :3], "velocity": v[:, :3]}
         if self.shell:
             point["rotation"] = u[:, 3:6]
+        elif self.rotating and self.dim == 3:     # rotation vectors
+            point.update(rotation=u[:, 3:6], angular_velocity=v[:, 3:6])
         elif self.rotating:                  # theta about z, then no third component
             point = {"displacement": np.pad(u[:, :2], ((0, 0), (0, 1))),
                      "velocity": np.pad(v[:, :2], ((0, 0), (0, 1))),

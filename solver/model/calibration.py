@@ -31,12 +31,13 @@ of the spacing):
 
 A calibration takes the mean of SAMPLES[dim] such samples (:func:`sampled`;
 four in 2D, where one sample's E scatters by 1.7 % from seed to seed; one in
-3D, where a test takes 2 s).
+3D, where a test takes 3 s; 3D beams, whose E scatters by 2-4 %, the mean of
+BEAM_SAMPLES at the psi found on one).
 
-The same test calibrates 2D beam bonds between rotating particles
+The same test calibrates beam bonds between rotating particles
 (:func:`calibrate_beams`, ``model.lattice.bond: beam``): their transverse stiffness
-psi x the axial one lowers nu from the central-bond value to 0 near psi = 1,
-so Brent's method on the measured nu finds psi, then kappa sets E.
+psi x the axial one lowers nu from the central-bond value to 0 near psi = 1
+(2D and 3D), so Brent's method on the measured nu finds psi, then kappa sets E.
 
 A scene's bonds get kappa = E / E_measured (plane strain: E / (1 - nu^2)).
 Central bonds give the packing its own nu (an isotropic central-force network
@@ -74,39 +75,54 @@ class Measured:
     concentration: float  # the largest bond strain in the window / the applied strain
     lateral: float        # minus the most compressed bond's strain / the applied strain:
     #                       the most stretched bond's per unit uniaxial compression
+    samples: int = 1      # how many samples these are the mean of
 
 
-def _solve(rows, cols, vals, n, fixed, value):
+def _solve(rows, cols, vals, n, fixed, value, turns: bool = False):
     """Displacements of K u = 0 with u[fixed] = value: one sparse LU solve of
-    the free rows (SciPy's SuperLU, COLAMD ordering).  Not PETSc: the
-    calibration runs while rank 0 reads the scene, before PETSc is started
-    (its initialisation is collective over all ranks)."""
-    from scipy.sparse import coo_matrix  # lazy: scipy loads only for a random packing
-    from scipy.sparse.linalg import spsolve  # lazy: as above
-    K = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
-    free = np.ones(n, bool)
-    free[fixed] = False
+    the free rows (SciPy's SuperLU, COLAMD ordering); ``turns``: 3D beams'
+    (u, theta) per particle, by conjugate gradients with
+    :func:`_beam_preconditioner` (its own translations' LU: 4 x faster than
+    an LU of the whole).  Not PETSc: the calibration runs while rank 0 reads
+    the scene, before PETSc is started (its initialisation is collective over
+    all ranks)."""
+    from scipy.sparse.linalg import spsolve  # lazy: scipy loads only for a random packing
+    A, rhs, free = _free(rows, cols, vals, n, fixed, value)
     u = np.zeros(n)
     u[fixed] = value
-    rhs = -(K[free][:, ~free] @ u[~free])
-    u[free] = spsolve(K[free][:, free].tocsc(), rhs)
+    u[free] = (_solve_pcg(A, rhs, _beam_preconditioner(A, free), rtol=1e-9) if turns else
+               spsolve(A.tocsc(), rhs))
     return u
 
 
 def bond_blocks(x, i, j, k, shear: float = 0.0) -> np.ndarray:
     """Stiffness blocks [n_bonds, 2 nd, 2 nd] of bonds (i, j) at rest, DOFs
     (particle i's, then j's): central springs k n n^T (nd = dim), or with
-    ``shear`` psi > 0 in 2D, beam bonds (:func:`beam_blocks`) of axial
-    stiffness k and Euler-Bernoulli bending k_b = psi k L^2 / 12 (transverse
-    stiffness 12 k_b / L^2 = psi k)."""
+    ``shear`` psi > 0, beam bonds (:func:`beams_at_rest`) of axial stiffness k
+    and Euler-Bernoulli bending k_b = psi k L^2 / 12 (transverse stiffness
+    12 k_b / L^2 = psi k)."""
     d = x[j] - x[i]
     if not shear:
         e1 = d / np.linalg.norm(d, axis=1)[:, None]
         g = np.concatenate([-e1, e1], axis=1)
         return k[:, None, None] * g[:, :, None] * g[:, None, :]
-    if x.shape[1] != 2:
-        raise ValueError("beam bonds are 2D")
-    return beam_blocks(d, k, shear * k * np.sum(d * d, axis=1) / 12.0)
+    return beams_at_rest(d, k, shear * k * np.sum(d * d, axis=1) / 12.0)
+
+
+def beams_at_rest(d, k_n, k_b) -> np.ndarray:
+    """The stiffness blocks at rest of beam bonds of rest separations ``d``:
+    :func:`beam_blocks` in 2D, :func:`beam_blocks3d` (torsion
+    :func:`torsion`) in 3D."""
+    if d.shape[1] == 3:
+        return beam_blocks3d(d, k_n, k_b, torsion(k_b))
+    return beam_blocks(d, k_n, k_b)
+
+
+def torsion(k_b):
+    """The torsional stiffness k_t = G_b J / L of 3D beam bonds of bending
+    stiffness k_b = E_b I / L: a circular section (J = 2 I) of a bond material
+    with nu_b = 0 (G_b = E_b / 2), so k_t = k_b."""
+    return np.asarray(k_b, float)
 
 
 def beam_blocks(d, k_n, k_b) -> np.ndarray:
@@ -128,6 +144,34 @@ def beam_blocks(d, k_n, k_b) -> np.ndarray:
             np.einsum("bpr,bpq,bqs->brs", B, Kb, B))
 
 
+def beam_blocks3d(d, k_n, k_b, k_t) -> np.ndarray:
+    """[n_bonds, 12, 12]: the stiffness at rest of 3D beam bonds of rest
+    separations ``d`` [n, 3] (:mod:`solver.partitions.beam_bond3d`
+    linearised, Euler-Bernoulli), axial k_n, bending k_b and torsion k_t, on
+    the DOFs (u, theta) of particle i, then j: the tilts g_e = [e0]x ((u_j -
+    u_i) / L + [e0]x theta_e), the twist e0 . (theta_j - theta_i)."""
+    n = len(d)
+    L = np.linalg.norm(d, axis=1)
+    e0 = d / L[:, None]
+    z = np.zeros((n, 3))
+    a = np.concatenate([-e0, z, e0, z], axis=1)                      # the stretch
+    t = np.concatenate([z, -e0, z, e0], axis=1)                      # the twist
+    E = np.zeros((n, 3, 3))
+    E[:, 0, 1], E[:, 0, 2], E[:, 1, 2] = -e0[:, 2], e0[:, 1], -e0[:, 0]
+    E -= np.transpose(E, (0, 2, 1))                                  # [e0]x
+    EE = E @ E
+    Z = np.zeros((n, 3, 3))
+    G_i = np.concatenate([-E / L[:, None, None], EE, E / L[:, None, None], Z], axis=2)
+    G_j = np.concatenate([-E / L[:, None, None], Z, E / L[:, None, None], EE], axis=2)
+    k_b = np.asarray(k_b, float)[:, None, None]
+    bend = (4.0 * k_b * (np.einsum("bri,brj->bij", G_i, G_i) +
+                         np.einsum("bri,brj->bij", G_j, G_j)) +
+            2.0 * k_b * (np.einsum("bri,brj->bij", G_i, G_j) +
+                         np.einsum("bri,brj->bij", G_j, G_i)))
+    return (np.asarray(k_n, float)[:, None, None] * a[:, :, None] * a[:, None, :] + bend +
+            np.asarray(k_t, float)[:, None, None] * t[:, :, None] * t[:, None, :])
+
+
 def _coo(i, j, blocks):
     """COO triplets of the bond blocks on nd DOFs per particle."""
     nd = blocks.shape[1] // 2
@@ -138,15 +182,22 @@ def _coo(i, j, blocks):
     return rows, cols, blocks.ravel(), dofs
 
 
+@lru_cache(maxsize=8)
+def _packing(dim: int, spread: float, gap: float, seed: int):
+    """The sample's packing at unit spacing: (x, r, i, j, k) its particles,
+    radii, bonds and their stiffness at kappa = 1 (0.75 s in 3D: made once
+    for the tests of a calibration)."""
+    x, r = packing.poisson_disc(np.zeros(dim), np.full(dim, SIDE[dim]), 0.5, spread, seed)
+    i, j = packing.neighbour_pairs(x, r, gap)
+    return x, r, i, j, packing.bond_stiffness(x, r, i, j, 1.0, 1.0)
+
+
 def _system(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0):
     """The sample's packing, its bonds' stiffness (COO, a weak tie to the ground
     included) and the grips: (x, r, i, j, blocks, dofs, (rows, cols, vals, n),
     fixed, value)."""
     side = SIDE[dim]
-    lo, hi = np.zeros(dim), np.full(dim, side)
-    x, r = packing.poisson_disc(lo, hi, 0.5, spread, seed)
-    i, j = packing.neighbour_pairs(x, r, gap)
-    k = packing.bond_stiffness(x, r, i, j, 1.0, 1.0)
+    x, r, i, j, k = _packing(dim, spread, gap, seed)
     blocks = bond_blocks(x, i, j, k, shear)
     nd = blocks.shape[1] // 2
     rows, cols, vals, dofs = _coo(i, j, blocks)
@@ -170,39 +221,70 @@ def _system(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0):
     return x, r, i, j, blocks, dofs, (rows, cols, vals, n), fixed, value
 
 
-@lru_cache(maxsize=4)
-def _bond_factor(dim: int, spread: float, gap: float, seed: int):
-    """SuperLU factor of the free rows of the sample's central-bond stiffness
-    (the preconditioner of :func:`measure` with the volumetric term)."""
+def _free(rows, cols, vals, n, fixed, value):
+    """(A, rhs, free DOFs) of K u = 0 with u[fixed] = value, on the free rows."""
     from scipy.sparse import coo_matrix  # lazy: scipy loads only for a random packing
-    from scipy.sparse.linalg import splu  # lazy: as above
-    *_, (rows, cols, vals, n), fixed, _ = _system(dim, spread, gap, seed)
-    free = np.ones(n, bool)
-    free[fixed] = False
-    K = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
-    return splu(K[free][:, free].tocsc())
-
-
-def _solve_bulk(rows, cols, vals, n, fixed, value, factor):
-    """As :func:`_solve`, by conjugate gradients preconditioned with the
-    central bonds' ``factor``: the volumetric term stiffens only the
-    dilatational modes: 15 iterations reach 1e-12 at eta = 1, 100-150 at
-    eta = 100-1000 (one LU of the wider matrix took 3 x longer than a whole
-    solve at small eta)."""
-    from scipy.sparse import coo_matrix  # lazy: scipy loads only for a random packing
-    from scipy.sparse.linalg import LinearOperator, cg  # lazy: as above
     K = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
     free = np.ones(n, bool)
     free[fixed] = False
     u = np.zeros(n)
     u[fixed] = value
-    A = K[free][:, free]
-    rhs = -(K[free][:, ~free] @ u[~free])
-    M = LinearOperator(A.shape, factor.solve)
-    u[free], info = cg(A, rhs, x0=factor.solve(rhs), rtol=1e-12, maxiter=500, M=M)
+    return K[free][:, free], -(K[free][:, ~free] @ u[~free]), np.flatnonzero(free)
+
+
+@lru_cache(maxsize=4)
+def _bond_factor(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0):
+    """SuperLU factor of the free rows of the sample's bond stiffness: central
+    (the preconditioner of :func:`measure` with the volumetric term), or of
+    the translations' rows of beams at psi = ``shear`` (of 3D beams at any
+    psi, with the rotations' blocks: :func:`_beam_preconditioner`)."""
+    from scipy.sparse.linalg import splu  # lazy: scipy loads only for a random packing
+    *_, system, fixed, value = _system(dim, spread, gap, seed, shear)
+    A, _, free = _free(*system, fixed, value)
+    if shear:
+        moves = np.flatnonzero(free % (2 * dim) < dim)
+        A = A[moves][:, moves]
+    return splu(A.tocsc())
+
+
+BEAM_REFERENCE = 0.5    # 3D beams' tests are preconditioned with the translations' LU at this psi
+
+
+def _beam_preconditioner(A, free, factor=None):
+    """M^-1 of 3D beams' free rows ``A`` (``free``: their DOFs, 6 per
+    particle; only translations are ever held): block Jacobi, the
+    translations' rows by ``factor`` (default: their LU in A; the sample's
+    at BEAM_REFERENCE serves every psi, the stiffness being linear in psi),
+    each particle's three rotations by the inverse of their 3 x 3 diagonal
+    block.  CG takes 45-80 iterations at psi 0.02-2 (1.5-2.5 s, against 15 s
+    for one LU of the whole system)."""
+    from scipy.sparse.linalg import LinearOperator, splu  # lazy: as above
+    turns = np.flatnonzero(free % 6 >= 3)
+    moves = np.flatnonzero(free % 6 < 3)
+    if factor is None:
+        factor = splu(A[moves][:, moves].tocsc())
+    a, b = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
+    first = turns[::3]
+    D = np.asarray(A[(first[:, None, None] + a).ravel(), (first[:, None, None] + b).ravel()])
+    inv = np.linalg.inv(D.reshape(-1, 3, 3))
+
+    def apply(v):
+        out = np.empty_like(v)
+        out[moves] = factor.solve(v[moves])
+        out[turns] = np.einsum("pij,pj->pi", inv, v[turns].reshape(-1, 3)).ravel()
+        return out
+    return LinearOperator(A.shape, apply)
+
+
+def _solve_pcg(A, rhs, M, rtol=1e-12):
+    """Conjugate gradients on ``A`` u = ``rhs`` preconditioned by ``M``, to 1e-12.
+    The volumetric term stiffens only the dilatational modes: the central
+    bonds' LU takes 15 iterations at eta = 1, 100-150 at eta = 100-1000 (one
+    LU of the wider matrix took 3 x longer than a whole solve at small eta)."""
+    from scipy.sparse.linalg import cg  # lazy: scipy loads only for a random packing
+    u, info = cg(A, rhs, x0=M @ rhs, rtol=rtol, maxiter=1000, M=M)
     if info:
-        raise ValueError(f"the calibration's solve with the volumetric term did not converge in "
-                         f"{info} iterations")
+        raise ValueError(f"the calibration's solve did not converge in {info} iterations")
     return u
 
 
@@ -210,7 +292,7 @@ def _solve_bulk(rows, cols, vals, n, fixed, value, factor):
 def measure(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0,
             bulk: float = 0.0) -> Measured:
     """E and nu of a packing with these settings at kappa = 1 (see the module);
-    ``shear`` psi > 0: 2D beam bonds of transverse stiffness psi k (rotations);
+    ``shear`` psi > 0: beam bonds of transverse stiffness psi k (rotations);
     ``bulk`` eta > 0: the volumetric term c_p = eta V_p n_p / n_full
     (:mod:`solver.model.dilatation`)."""
     x, r, i, j, blocks, dofs, (rows, cols, vals, n), fixed, value = _system(
@@ -221,8 +303,14 @@ def measure(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0,
         Kv = (G.T @ G.multiply(c[:, None])).tocoo()
         rows, cols = np.concatenate([rows, Kv.row]), np.concatenate([cols, Kv.col])
         vals = np.concatenate([vals, Kv.data])
-        u = _solve_bulk(rows, cols, vals, n, fixed, value,
-                        _bond_factor(dim, spread, gap, seed))
+    if bulk or (shear and dim == 3):
+        from scipy.sparse.linalg import LinearOperator  # lazy: as _solve's
+        A, rhs, free = _free(rows, cols, vals, n, fixed, value)
+        M = (LinearOperator(A.shape, _bond_factor(dim, spread, gap, seed).solve) if bulk else
+             _beam_preconditioner(A, free, _bond_factor(dim, spread, gap, seed, BEAM_REFERENCE)))
+        u = np.zeros(n)
+        u[fixed] = value
+        u[free] = _solve_pcg(A, rhs, M, rtol=1e-12 if bulk else 1e-9)
     else:
         u = _solve(rows, cols, vals, n, fixed, value)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -253,12 +341,19 @@ def _measured(x, i, j, blocks, dofs, u, side, shear=0.0, P=None):
     du = ut[j[inside]] - ut[i[inside]]
     axial = np.einsum("ba,ba->b", du, d) / L ** 2
     bend = np.zeros_like(axial)
-    if shear:                    # beams: the outer fibre's bending strain (BeamBonds.failure)
+    if shear and dim == 2:       # beams: the outer fibre's bending strain (BeamBonds.failure)
         theta = u.reshape(-1, nd)[:, dim]
         beta = (d[:, 0] * du[:, 1] - d[:, 1] * du[:, 0]) / L ** 2
         phi_i, phi_j = theta[i[inside]] - beta, theta[j[inside]] - beta
         bend = 0.5 * np.sqrt(shear) * np.maximum(np.abs(4 * phi_i + 2 * phi_j),
                                                  np.abs(2 * phi_i + 4 * phi_j))
+    elif shear:                  # 3D: a circular section's (BeamBonds3D.failure), the tilts
+        theta = u.reshape(-1, nd)[:, dim:]                       # g_e = e0 x (du / L + e0 x theta_e)
+        e0 = d / L[:, None]
+        g_i, g_j = (np.cross(e0, du / L[:, None] + np.cross(e0, theta[e[inside]]))
+                    for e in (i, j))
+        bend = np.sqrt(shear / 3.0) * np.maximum(np.linalg.norm(4 * g_i + 2 * g_j, axis=1),
+                                                 np.linalg.norm(2 * g_i + 4 * g_j, axis=1))
     exx = grad[0, 0]
     lateral = np.mean([grad[c, c] for c in range(1, dim)])
     return Measured(sxx / exx, -lateral / exx, int(x.shape[0]), int(i.size),
@@ -266,34 +361,35 @@ def _measured(x, i, j, blocks, dofs, u, side, shear=0.0, P=None):
                     float((bend - axial).max() / exx))
 
 
-SAMPLES = {2: 4, 3: 1}     # samples a calibration averages over (3D: one, 2 s each)
+SAMPLES = {2: 4, 3: 1}     # samples a calibration averages over (3D: one, 3 s each)
+BEAM_SAMPLES = 4           # 3D beams: their psi found on one, E and nu the mean of this many
 SAMPLE_SEED = 7919         # sample s of a scene's seed is packed with seed + s x this
 
 
 @lru_cache(maxsize=64)
 def sampled(dim: int, spread: float, gap: float, seed: int, shear: float = 0.0,
-            bulk: float = 0.0) -> Measured:
+            bulk: float = 0.0, samples: int = 0) -> Measured:
     """The packing's constants as :func:`measure` gives them, averaged over
-    SAMPLES[dim] samples (seeds seed + s SAMPLE_SEED): one 60 x 60 sample's
-    E scatters by 1.7 % from seed to seed (2D beams, seeds 0-5: 0.871 to
-    0.901), and the mean of four halves that; ``particles`` and ``bonds``
-    are the samples' totals."""
+    ``samples`` (default SAMPLES[dim]) samples (seeds seed + s SAMPLE_SEED):
+    one 60 x 60 sample's E scatters by 1.7 % from seed to seed (2D beams,
+    seeds 0-5: 0.871 to 0.901), and the mean of four halves that; one 20^3
+    sample of 3D beams' by 2-4 %; ``particles`` and ``bonds`` are the
+    samples' totals."""
     got = [measure(dim, float(spread), float(gap), int(seed) + s * SAMPLE_SEED, float(shear),
-                   float(bulk)) for s in range(SAMPLES[dim])]
+                   float(bulk)) for s in range(samples or SAMPLES[dim])]
     if len(got) == 1:
         return got[0]
     mean = {f: float(np.mean([getattr(m, f) for m in got]))
             for f in ("E", "nu", "coordination", "concentration", "lateral")}
     return Measured(particles=sum(m.particles for m in got), bonds=sum(m.bonds for m in got),
-                    **mean)
+                    samples=len(got), **mean)
 
 
-def tests(dim: int, m: Measured) -> str:
+def tests(m: Measured) -> str:
     """What the calibration measured, for the log: "uniaxial tests of 4 samples
     (9187 particles)"."""
-    n = SAMPLES[dim]
-    return (f"uniaxial tests of {n} samples ({m.particles} particles)" if n > 1 else
-            f"a uniaxial test of {m.particles} particles")
+    return (f"uniaxial tests of {m.samples} samples ({m.particles} particles)" if m.samples > 1
+            else f"a uniaxial test of {m.particles} particles")
 
 
 def calibrate(E: float, nu: float, kind: str, spread: float, gap: float,
@@ -315,49 +411,105 @@ def calibrate(E: float, nu: float, kind: str, spread: float, gap: float,
     if check and abs(nu - represents) > NU_TOLERANCE:
         raise ValueError(f"a random packing of central bonds (radius_spread {spread:g}, gap "
                          f"{gap:g}) represents nu = {represents:.3g} in {kind} (measured on a "
-                         f"{tests(dim, m)}); the material has nu = "
-                         f"{nu:g} (allowed within {NU_TOLERANCE}; {_lower(dim, nu, represents)})")
+                         f"{tests(m)}); the material has nu = "
+                         f"{nu:g} (allowed within {NU_TOLERANCE}; {_lower(nu, represents)})")
     return target / E / m.E, m
 
 
-def _lower(dim: int, nu: float, represents: float) -> str:
+def _lower(nu: float, represents: float) -> str:
     """What gives a nu the central bonds do not represent."""
     if nu > represents:
         return "a larger nu takes the volumetric term (solver.model.dilatation)"
-    if dim == 2:
-        return "a smaller one needs beam bonds: model.lattice.bond: beam"
-    return "a smaller one needs beam bonds, which are 2D"
+    return "a smaller one needs beam bonds: model.lattice.bond: beam"
 
 
 SHEAR_RANGE = (0.0, 2.0)      # psi searched by calibrate_beams
 
 
+BEAM_NU_STEP = 2e-5   # 3D beams' psi search stops this close to nu
+
+
+def _falling_root(nu_at, goal: float, top: float, tol: float):
+    """(psi, None) with |nu_at(psi) - goal| < tol, nu falling with psi from
+    ``top`` = nu_at(0) > goal, or (None, nu at SHEAR_RANGE[1]) when that is
+    still above ``goal``.  The first guess is the model nu = top (1 - psi) /
+    (1 + psi / 5) (within 0.002 of 3D packings' at psi 0.3, 0.02 at 2), the
+    second the model refitted through the first test, then secants kept
+    inside the bracket found so far (bisecting where one leaves it): 3-4
+    tests, against Brent's 6-7 on the whole range."""
+    lo, hi = 0.0, None                     # psi above and below the goal so far
+
+    def model(psi, value):                 # the model's psi for the goal, through (psi, value)
+        k = (top * (1.0 - psi) / value - 1.0) / psi if psi and value else 0.2
+        g = goal / top if top > 0 else 0.0
+        return (1.0 - g) / (1.0 + max(k, -0.9) * g)
+    tried = []
+    psi = model(0.0, 0.0) if top > 0 else SHEAR_RANGE[1]
+    for _ in range(60):
+        ceiling = SHEAR_RANGE[1] if hi is None else hi
+        if not lo < psi < ceiling:
+            psi = 0.5 * (lo + hi) if hi is not None else SHEAR_RANGE[1]
+        value = nu_at(psi)
+        tried.append((psi, value))
+        if abs(value - goal) < tol:
+            return psi, None
+        if value > goal:
+            lo = psi
+            if psi >= SHEAR_RANGE[1]:
+                return None, value
+        else:
+            hi = psi
+        if len(tried) == 1:
+            psi = model(psi, value)
+        else:
+            (p0, v0), (p1, v1) = tried[-2:]
+            psi = p1 - (v1 - goal) * (p1 - p0) / (v1 - v0) if v1 != v0 else -1.0
+    return psi, None
+
+
 def calibrate_beams(E: float, nu: float, kind: str, spread: float, gap: float,
                     seed: int) -> tuple[float, float, Measured]:
-    """(kappa, psi, the packing measured at kappa = 1 and that psi) of 2D beam
+    """(kappa, psi, the packing measured at kappa = 1 and that psi) of beam
     bonds (:func:`bond_blocks`): psi, the bonds' transverse stiffness over
     their axial one, sets nu (the packing's central-bond nu at psi = 0,
-    falling through 0 near psi = 1), found by Brent's method on the measured
-    nu to 1e-4; kappa then sets E.  ValueError for a nu outside the range
-    psi in SHEAR_RANGE covers, naming it."""
+    falling through 0 near psi = 1 in 2D and 3D), found by Brent's method on
+    the measured nu (to 1e-6 in psi; 3D, where a test takes 1.5-2.5 s: by
+    :func:`_falling_root` to BEAM_NU_STEP, on one sample); kappa then sets E, measured in 3D as
+    the mean of BEAM_SAMPLES samples at that psi (whose mean nu then differs
+    from the one sample's by a few 1e-3).  ValueError for a nu outside the
+    range psi in SHEAR_RANGE covers, naming it."""
     from scipy.optimize import brentq  # lazy: scipy loads only for a random packing
-    if kind == "solid":
-        raise ValueError("beam bonds are 2D (plane_stress or plane_strain)")
+    dim = 3 if kind == "solid" else 2
     in_plane = nu / (1.0 - nu) if kind == "plane_strain" else nu
     target = E / (1.0 - nu ** 2) if kind == "plane_strain" else E
 
-    def nu_at(psi):
-        return sampled(2, float(spread), float(gap), int(seed), float(psi)).nu
+    def nu_at(psi):                          # (3D: one sample)
+        return sampled(dim, float(spread), float(gap), int(seed), float(psi)).nu
 
-    lo, hi = (nu_at(p) for p in SHEAR_RANGE)
-    if not hi <= in_plane <= lo:
-        def plain(v):
-            return v / (1.0 + v) if kind == "plane_strain" else v
-        raise ValueError(f"beam bonds in a random packing (radius_spread {spread:g}, gap {gap:g}) "
-                         f"cover nu {plain(max(hi, 0.0)):.3g} to {plain(lo):.3g} in {kind}; the "
-                         f"material has nu = {nu:g}")
-    psi = brentq(lambda p: nu_at(p) - in_plane, *SHEAR_RANGE, xtol=1e-6, rtol=1e-10)
-    m = sampled(2, float(spread), float(gap), int(seed), float(psi))
+    def plain(v):
+        return v / (1.0 + v) if kind == "plane_strain" else v
+    try:
+        lo = nu_at(SHEAR_RANGE[0])
+        if in_plane > lo:                          # (known without a test of beams)
+            raise ValueError(f"beam bonds in a random packing (radius_spread {spread:g}, gap "
+                             f"{gap:g}) cover nu up to the central bonds' {plain(lo):.3g} in "
+                             f"{kind}; the material has nu = {nu:g} (a larger nu takes "
+                             "central bonds, bond: central, with the volumetric term)")
+        if dim == 2:
+            hi = nu_at(SHEAR_RANGE[1])
+            psi = brentq(lambda p: nu_at(p) - in_plane, *SHEAR_RANGE, xtol=1e-6,
+                         rtol=1e-10) if hi <= in_plane else None
+        else:
+            psi, hi = _falling_root(nu_at, in_plane, lo, BEAM_NU_STEP)
+        if psi is None:
+            raise ValueError(f"beam bonds in a random packing (radius_spread {spread:g}, gap "
+                             f"{gap:g}) cover nu {plain(max(hi, 0.0)):.3g} to {plain(lo):.3g} "
+                             f"in {kind}; the material has nu = {nu:g}")
+        m = sampled(dim, float(spread), float(gap), int(seed), float(psi),
+                    samples=BEAM_SAMPLES if dim == 3 else 0)
+    finally:
+        if dim == 3:
+            _bond_factor.cache_clear()     # (its LU: 600 MB)
     return target / E / m.E, psi, m
 
 

@@ -26,7 +26,7 @@ from solver.model.elements import elastic
 from solver.model.interface import Lattice, Shells
 from solver.errors import SceneError
 from solver.memory import zeros_if_zero
-from solver.model.calibration import beam_blocks
+from solver.model.calibration import beams_at_rest
 from solver.model.lattice import cubic, square
 
 
@@ -179,9 +179,9 @@ class BondStiffness:
 
 
 class BeamStiffness(BondStiffness):
-    """Blocks [6, 6] of 2D beam bonds at rest (axial k, bending k_b) on the
-    DOFs (u_x, u_y, theta) of their two particles
-    (:func:`solver.model.calibration.beam_blocks`), computed when asked."""
+    """Blocks of beam bonds at rest (axial k, bending k_b; [6, 6] on the DOFs
+    (u_x, u_y, theta) of their two particles in 2D, [12, 12] on (u, theta) in
+    3D: :func:`solver.model.calibration.beams_at_rest`), computed when asked."""
 
     def __init__(self, points, conn, k, k_b):
         super().__init__(points, conn, k)
@@ -189,8 +189,8 @@ class BeamStiffness(BondStiffness):
 
     def __getitem__(self, idx) -> np.ndarray:
         c = self.conn[idx]
-        return beam_blocks(self.points[c[:, 1]] - self.points[c[:, 0]], self.k[idx],
-                           self.k_b[idx])
+        return beams_at_rest(self.points[c[:, 1]] - self.points[c[:, 0]], self.k[idx],
+                             self.k_b[idx])
 
     @classmethod
     def joined(cls, parts, conn) -> "BeamStiffness":
@@ -409,6 +409,10 @@ def _dilatation(zone, n_nodes):
     return dilatation.Dilatation(c, dilatation.counts(bi, bj, n_nodes))
 
 
+ROTATING_DOFS = {2: 3, 3: 6}      # a rotating particle's DOFs: (u_x, u_y, theta), (u, theta)
+INERTIA = {2: 0.5, 3: 0.4}        # its rotary inertia / m r^2: a disc's, a sphere's
+
+
 def _with_zone(scene, mesh, zone, cells, mass):
     """The model of a transition band: mesh nodes, then the core particles."""
     dim = mesh.dim
@@ -423,12 +427,12 @@ def _with_zone(scene, mesh, zone, cells, mass):
     n_nodes = zone.n_mesh + zone.n_core
     lat = scene.model.lattice
     dof, rotary = dim, None
-    if zone.bending is not None:           # rotating particles: (u_x, u_y, theta) on every node
-        dof = dim + 1
+    if zone.bending is not None:           # rotating particles: (u, theta) on every node
+        dof = ROTATING_DOFS[dim]
         cells = [(fam, conn, shell_model.Padded(Ke, fam.n_nodes, dim, dof))
                  for fam, conn, Ke in cells]
         rotary = np.ones(n_nodes)            # (mesh nodes: never used, their rotation is fixed)
-        rotary[zone.n_mesh:] = 0.5 * zone.mass * zone.radii ** 2
+        rotary[zone.n_mesh:] = INERTIA[dim] * zone.mass * zone.radii ** 2
     fixed = fixed_dofs(scene, mesh, n_nodes, dof)
     if rotary is not None:
         fixed.reshape(n_nodes, dof)[:zone.n_mesh, dim:] = True

@@ -62,9 +62,11 @@ def _motion(arrays, motion, mesh, dim) -> dict:
                 setter[name][first + c] = i
             if arrays.rotary is not None:              # rotating particles turn with the field
                 turns = ~arrays.fixed[first + dim]
-                at = first[turns] + dim
-                values[at] = _rotation(given, arrays.points[nodes[turns]], path, name)
-                setter[name][at] = i
+                spin = _rotation(given, arrays.points[nodes[turns]], path, name)
+                for c in range(arrays.dof - dim):
+                    at = first[turns] + dim + c
+                    values[at] = spin if dim == 2 else spin[:, c]
+                    setter[name][at] = i
     for name, values in state.items():
         # round-off of an expression that vanishes at the support (sin(pi x / L) at
         # x = L: 6e-17) is no motion: it is zeroed; more than that is refused
@@ -84,19 +86,24 @@ def _motion(arrays, motion, mesh, dim) -> dict:
 
 
 def _rotation(given, points, path, name) -> np.ndarray:
-    """1/2 (d g_y/dx - d g_x/dy) of the 2D field ``given`` at ``points``: the
-    rotation (or angular velocity) of a particle moving with it (a rigid
-    spin's is the spin), by central differences of step 1e-6 x the points'
-    extent (exact for a field linear in x and y)."""
+    """1/2 curl of the field ``given`` at ``points`` (2D: 1/2 (d g_y/dx - d
+    g_x/dy) [n]; 3D: [n, 3]): the rotation (or angular velocity) of a
+    particle moving with it (a rigid spin's is the spin), by central
+    differences of step 1e-6 x the points' extent (exact for a field linear
+    in the coordinates)."""
+    dim = points.shape[1]
     h = 1e-6 * max(float(np.ptp(points, axis=0).max(initial=0.0)), 1e-9)
-    out = np.zeros(len(points))
-    for c, axis, sign in ((1, 0, 1.0), (0, 1, -1.0)):
-        step = np.zeros(points.shape[1])
+
+    def slope(c, axis):                  # d g_c / d x_axis
+        step = np.zeros(dim)
         step[axis] = h
         label = f"{path}.{name}[{c}]"
-        out += sign * (expression.evaluate(given[c], points + step, label) -
-                       expression.evaluate(given[c], points - step, label)) / (4.0 * h)
-    return out
+        return (expression.evaluate(given[c], points + step, label) -
+                expression.evaluate(given[c], points - step, label)) / (2.0 * h)
+    if dim == 2:
+        return 0.5 * (slope(1, 0) - slope(0, 1))
+    return 0.5 * np.stack([slope(2, 1) - slope(1, 2), slope(0, 2) - slope(2, 0),
+                           slope(1, 0) - slope(0, 1)], axis=1)
 
 
 def describe(model) -> list[str]:

@@ -57,7 +57,7 @@ class RankOneBonds:
 class CarriedBeams:
     """Stiffness blocks [n, nd, nd] of beam bonds carried to nodes (T^T K T,
     the last node a core particle or not) with their rest separations ``d``
-    [n, 2] (from the bond's first end to its second)."""
+    [n, dim] (from the bond's first end to its second)."""
 
     def __init__(self, conn, blocks, d):
         self.conn, self.blocks, self.d = conn, blocks, d
@@ -301,9 +301,9 @@ def _random(spec, pts, band, region, lo, hi):
                          f"{ids.size} particles unbonded (none of their Delaunay neighbours "
                          "within the gap); give a larger gap")
     beam = lat.bond == "beam"
-    if beam and dim != 2:
-        raise SceneError("model.lattice.bond: beam bonds between rotating particles are 2D; "
-                         "this mesh is 3D")
+    if beam and dim == 3 and lat.contact is not None:
+        raise SceneError("model.lattice.contact: rotating particles (bond: beam) touch in 2D "
+                         "only; a 3D beam model takes no contact")
     psi = eta = 0.0
     try:
         bulk = not beam and _above(mat, dim, spread, gap, lat.seed)
@@ -331,11 +331,12 @@ def _random(spec, pts, band, region, lo, hi):
     note = (f"random packing: {ids.size} particles (radius {0.5 * lat.spacing:g} m, spread "
             f"{spread:g}, seed {lat.seed}), {i.size} bonds (gap {gap:g}; "
             f"{2 * i.size / ids.size:.2f} per particle), E calibrated (bond factor {kappa:.4g}) "
-            f"on {calibration.tests(dim, measured)}, which gives nu {nu:.3f}; its "
+            f"on {calibration.tests(measured)}, which gives nu {nu:.3f}; its "
             f"most stretched bond carries {measured.concentration:.2f} x the applied strain")
     if beam:
-        note += (f"; beam bonds (bending k_b = {psi:.4g} k L^2 / 12, calibrated to nu "
-                 f"{mat.nu:g}), particles rotating with inertia 1/2 m r^2")
+        note += (f"; beam bonds (bending k_b = {psi:.4g} k L^2 / 12"
+                 f"{', torsion k_t = k_b' if dim == 3 else ''}, calibrated to nu {mat.nu:g}), "
+                 f"particles rotating with inertia {'1/2' if dim == 2 else '2/5'} m r^2")
     if eta:
         note += (f"; a volumetric term on every particle's bonds (c = {eta:.4g} kappa E V n / "
                  f"{dilatation.FULL[dim]:g}, "
@@ -356,44 +357,59 @@ def _above(mat, dim, spread, gap, seed) -> bool:
 
 
 def _curls(pts, cells: dict, cell, particles) -> np.ndarray:
-    """[n, k, 2]: c with the rotation of the displacement field at each band
-    particle, theta = 1/2 (du_y/dx - du_x/dy) = sum_a c_a . u_a over its cell's
-    nodes a (c_a = 1/2 (-dN_a/dy, dN_a/dx))."""
+    """The rotation of the displacement field at each band particle as a map
+    from its cell's nodal displacements, theta = 1/2 curl u = sum_a C_a u_a
+    over the cell's nodes a: [n, k, 2] in 2D (theta = 1/2 (du_y/dx -
+    du_x/dy), C_a = 1/2 (-dN_a/dy, dN_a/dx)), [n, k, 3, 3] in 3D (C_a =
+    1/2 [grad N_a]x)."""
     fams, conn = flat_cells(cells)
     fams, k = np.asarray(fams), conn.shape[1]
-    out = np.zeros((len(particles), k, 2))
+    dim = pts.shape[1]
+    out = np.zeros((len(particles), k, 2) if dim == 2 else (len(particles), k, 3, 3))
     for fam in set(fams[cell].tolist()):
         at = np.flatnonzero(fams[cell] == fam)
         X = pts[conn[cell[at]]][:, :FAMILIES[fam].n_nodes]
         xi = local_coordinates(fam, X, particles[at])
-        _, dN = FAMILIES[fam].shape(xi)                          # [n, k, 2] dN/dxi
+        _, dN = FAMILIES[fam].shape(xi)                          # [n, k, dim] dN/dxi
         J = np.einsum("nkd,nke->nde", X, dN)                      # dx/dxi
-        dNdx = np.einsum("nke,ned->nkd", dN, np.linalg.inv(J))
-        out[at, :X.shape[1]] = 0.5 * np.stack([-dNdx[..., 1], dNdx[..., 0]], axis=-1)
+        g = np.einsum("nke,ned->nkd", dN, np.linalg.inv(J))       # dN/dx
+        if dim == 2:
+            out[at, :X.shape[1]] = 0.5 * np.stack([-g[..., 1], g[..., 0]], axis=-1)
+            continue
+        C = np.zeros(g.shape[:2] + (3, 3))
+        C[..., 0, 1], C[..., 0, 2], C[..., 1, 2] = -g[..., 2], g[..., 1], -g[..., 0]
+        out[at, :X.shape[1]] = 0.5 * (C - np.swapaxes(C, -1, -2))
     return out
 
 
 def _carried_beams(points, bi, bj, bk, is_band, is_core, band_no, model_id, b_nodes, b_w, kb,
                    curl):
     """Block sets ("beam", conn, CarriedBeams) of the beam bonds with a band end,
-    on the nodes of their cells (3 DOFs each: u_x, u_y and a rotation the
-    nodes do not use) and their core particle: T^T K T, K the bond's stiffness
-    at rest (:func:`solver.model.calibration.beam_blocks`) and T the map from
-    the element's DOFs to the bond ends' (u, theta): a band particle moves
-    with its cell (weights N) and turns with its displacement field's
-    rotation (``curl``).  A band-core bond is oriented from its band end to
-    its core particle, the element's last node (as the central bonds')."""
+    on the nodes of their cells (each with a rotating particle's DOFs: u and
+    rotations the nodes do not use) and their core particle: T^T K T, K the
+    bond's stiffness at rest (:func:`solver.model.calibration.beams_at_rest`)
+    and T the map from the element's DOFs to the bond ends' (u, theta): a
+    band particle moves with its cell (weights N) and turns with its
+    displacement field's rotation (``curl``).  A band-core bond is oriented
+    from its band end to its core particle, the element's last node (as the
+    central bonds')."""
     flip = is_core[bi] & is_band[bj]
     bi, bj = np.where(flip, bj, bi), np.where(flip, bi, bj)
     d = points[bj] - points[bi]
-    K = calibration.beam_blocks(d, bk, kb)
+    dim = d.shape[1]
+    nd = 3 if dim == 2 else 6                   # (u, theta) of a rotating particle
+    K = calibration.beams_at_rest(d, bk, kb)
     k = b_nodes.shape[1]
 
-    def band_rows(p):                                   # [n, 3, 3k]: (u_x, u_y, theta) of p
-        T = np.zeros((len(p), 3, k, 3))
-        T[:, 0, :, 0] = T[:, 1, :, 1] = b_w[p]
-        T[:, 2, :, :2] = curl[p]
-        return T.reshape(len(p), 3, 3 * k)
+    def band_rows(p):                                   # [n, nd, nd k]: (u, theta) of p
+        T = np.zeros((len(p), nd, k, nd))
+        for c in range(dim):
+            T[:, c, :, c] = b_w[p]
+        if dim == 2:
+            T[:, 2, :, :2] = curl[p]
+        else:
+            T[:, 3:, :, :3] = np.transpose(curl[p], (0, 2, 1, 3))
+        return T.reshape(len(p), nd, nd * k)
 
     out = []
     for m in (is_band[bi] & is_band[bj], is_band[bi] & is_core[bj]):
@@ -402,10 +418,10 @@ def _carried_beams(points, bi, bj, bk, is_band, is_core, band_no, model_id, b_no
         n = int(m.sum())
         core = bool(is_core[bj[m][0]])
         Ti = band_rows(band_no[bi[m]])
-        Tj = np.broadcast_to(np.eye(3), (n, 3, 3)) if core else band_rows(band_no[bj[m]])
-        T = np.zeros((n, 6, Ti.shape[2] + Tj.shape[2]))
-        T[:, :3, :Ti.shape[2]] = Ti
-        T[:, 3:, Ti.shape[2]:] = Tj
+        Tj = np.broadcast_to(np.eye(nd), (n, nd, nd)) if core else band_rows(band_no[bj[m]])
+        T = np.zeros((n, 2 * nd, Ti.shape[2] + Tj.shape[2]))
+        T[:, :nd, :Ti.shape[2]] = Ti
+        T[:, nd:, Ti.shape[2]:] = Tj
         conn = np.hstack([b_nodes[band_no[bi[m]]],
                           model_id[bj[m]][:, None] if core else b_nodes[band_no[bj[m]]]])
         out.append(("beam", conn, CarriedBeams(conn, np.einsum("bri,brs,bsj->bij", T, K[m], T),

@@ -1,10 +1,13 @@
-"""f_int(u) of a dem partition whose particles rotate, joined by 2D beam bonds
+"""f_int(u) of a dem partition whose particles rotate, joined by beam bonds
 (``model.lattice.bond: beam``).
 
-Every particle carries (u_x, u_y, theta) (the model's nodes have three DOFs;
+Every particle carries (u_x, u_y, theta) in 2D, (u, theta) with theta a
+rotation vector in 3D (the model's nodes have three or six DOFs;
 :mod:`solver.model.continuum`), and its bonds are the co-rotational beams of
-:mod:`solver.partitions.beam_bond`, evaluated by the compiled loop of
-:mod:`solver.partitions.beam_bond_kernel` from the current positions and
+:mod:`solver.partitions.beam_bond` (2D) or
+:mod:`solver.partitions.beam_bond3d` (3D), evaluated by their compiled loops
+(:mod:`solver.partitions.beam_bond_kernel`,
+:mod:`solver.partitions.beam_bond3d_kernel`) from the current positions and
 rotations: a rigid motion of a bonded cluster, however large its rotation,
 exerts no force or torque.  The ghost particles (another piece's, on a
 partition split over ranks), the bond order and the energy shares are those
@@ -12,7 +15,7 @@ of :class:`~solver.partitions.bonds.BondForce`, which this extends; the
 other elements (bonds carried to a transition band's nodes) stay linear,
 one MatMult.  With ``model.lattice.break_strain`` a beam breaks in tension
 (its most stretched fibre) or in shear (Mohr-Coulomb), its mode recorded
-(:meth:`BeamBonds.breakable`).  With ``model.lattice.contact`` particles
+(:meth:`BeamBonds.breakable`).  With ``model.lattice.contact`` (2D) particles
 that share no live beam touch as in :mod:`solver.partitions.contact`, whose
 shear springs and friction then also turn them (the contact point rolls
 with their rotations; the tangential force's moment acts on both).  With
@@ -25,12 +28,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.model.calibration import torsion
 from solver.partitions.beam_bond import BeamBonds
+from solver.partitions.beam_bond3d import BeamBonds3D
 from solver.partitions.bonds import BondForce
 
 
 class BeamBondForce(BondForce):
-    """Co-rotational beam bonds between rotating particles (2D), breaking in
+    """Co-rotational beam bonds between rotating particles, breaking in
     tension or shear when given a ``break_strain`` (``shear``: (shear_ratio,
     tan friction angle); ``weibull``: the strengths' spread); ``contact``:
     the particles' contact settings (``node_mass``: the model's masses)."""
@@ -39,13 +44,18 @@ class BeamBondForce(BondForce):
                  weibull=None, shear=None, contact=None, node_mass=None, heat=None):
         super().__init__(part, lattice_block, linear_op, other_blocks, tangent, break_strain,
                          contact, heat, node_mass, weibull)
-        # lazy: numba loads only when a partition with beam bonds is built
-        from solver.partitions.beam_bond_kernel import beam_forces
-        self._beam_forces = beam_forces
         conn, stiff = lattice_block
         at = {(int(a), int(b)): n for n, (a, b) in enumerate(conn.tolist())}
         k_b = stiff.k_b[[at[(int(a), int(b))] for a, b in self.nodes.tolist()]]
-        self.beams = BeamBonds(self.i, self.j, self.dX, self.k, k_b)
+        if self.space == 2:
+            # lazy: numba loads only when a partition with beam bonds is built
+            from solver.partitions.beam_bond_kernel import beam_forces
+            self.beams = BeamBonds(self.i, self.j, self.dX, self.k, k_b)
+        else:
+            # lazy: as above
+            from solver.partitions.beam_bond3d_kernel import beam_forces3d as beam_forces
+            self.beams = BeamBonds3D(self.i, self.j, self.dX, self.k, k_b, torsion(k_b))
+        self._beam_forces = beam_forces
         self.beams.alive = self.alive                    # one mask: breaks, damage, energy
         self._shear_ratio = 1.0
         if break_strain is not None:
@@ -55,7 +65,13 @@ class BeamBondForce(BondForce):
         self._mode = np.zeros(len(self.k), np.int64)
 
     def separations(self, u, bonds=slice(None)):
-        return self.dX[bonds] + (u[self.j[bonds], :2] - u[self.i[bonds], :2])
+        s = self.space
+        return self.dX[bonds] + (u[self.j[bonds], :s] - u[self.i[bonds], :s])
+
+    def _split(self, q):
+        """(displacements, rotations) of q: theta [m] in 2D, [m, 3] in 3D."""
+        s = self.space
+        return q[:, :s], (q[:, s] if s == 2 else q[:, s:])
 
     def set_temperature(self, T_node, count=True) -> float:
         """The beams' rest lengths and strengths at the model nodes'
@@ -92,13 +108,14 @@ class BeamBondForce(BondForce):
         last one's), particles.  The energy counts once: on the piece owning
         its first particle."""
         sub = self.beams.subset(which)
-        fibre, slip, t_limit, s_limit = sub.failure(q[:, :2], q[:, 2])
+        fibre, slip, t_limit, s_limit = sub.failure(*self._split(q))
         shear = mode == 2
         strain, limit = np.where(shear, slip, fibre), np.where(shear, s_limit, t_limit)
-        energy = self._released(sub.energies(q[:, :2], q[:, 2]),
-                                lambda v: sub.energies(v[:, :2], v[:, 2]))
+        energy = self._released(sub.energies(*self._split(q)),
+                                lambda v: sub.energies(*self._split(v)))
         i, j = self.i[which], self.j[which]
-        mid = 0.5 * ((self.X[i] + self.X[j]) + (q[i, :2] + q[j, :2]))
+        s = self.space
+        mid = 0.5 * ((self.X[i] + self.X[j]) + (q[i, :s] + q[j, :s]))
         first = i < self.part.layout.n_owned
         self.released += float(energy[first].sum())
         temp = self.T[which] if self.T is not None else np.full(which.size, np.nan)
@@ -126,7 +143,7 @@ class BeamBondForce(BondForce):
         """The live beams' forces in numpy (:class:`~solver.partitions.beam_bond.BeamBonds`;
         nothing breaks here)."""
         q, n = self.displacements(u_vec), self.n_held
-        force, torque = self.beams.forces(q[:, :2], q[:, 2])
+        force, torque = self.beams.forces(*self._split(q))
         self._remember(q)
         out = np.column_stack([force, torque])[:n]
         if self.contact is not None:
@@ -138,15 +155,15 @@ class BeamBondForce(BondForce):
             out_vec.getArray()[:] = out.ravel()
 
     def virial(self, u, bonds, c) -> float:
-        """sum f_c d_c over the live ``bonds`` at ``u`` [n, 3]: f = N e1 - V e2 the
-        beam's force on its first particle (axial and shear)."""
-        return self.beams.virial(u[:, :2], u[:, 2], bonds, c)
+        """sum f_c d_c over the live ``bonds`` at ``u`` [n, dof]: f the beam's
+        force on its first particle (axial and shear)."""
+        return self.beams.virial(*self._split(u), bonds, c)
 
     def energy(self, part) -> float:
         """Strain energy of the live beams, half to each end this piece owns,
         plus the other elements' (owned rows)."""
         q = self.displacements(part.u)
-        e = np.where(self.alive, self.beams.energies(q[:, :2], q[:, 2]), 0.0)
+        e = np.where(self.alive, self.beams.energies(*self._split(q)), 0.0)
         total = float(np.dot(e, self._share()))
         if self.contact is not None:             # of the last force evaluation (one piece)
             total += self.contact.energy

@@ -341,11 +341,12 @@ class LatticeSpec:
         "shear strength, which grows by the compressive stress across the bond x tan(angle); "
         "default 0", None, nonnegative=True)
     bond: Literal["central", "beam"] = key(
-        "central: bonds carry a normal force only (the packing's own nu); beam (2D, kind "
-        "random, geometry nonlinear): particles rotate (one more DOF each, inertia 1/2 m r^2) "
-        "and bonds are co-rotational beams carrying normal and shear force and bending "
-        "moments, calibrated to E and nu (nu from 0 to the central value), breaking in "
-        "tension or shear with break_strain (docs/bonds.md)",
+        "central: bonds carry a normal force only (the packing's own nu); beam (kind "
+        "random, geometry nonlinear): particles rotate (2D: one more DOF each, inertia "
+        "1/2 m r^2; 3D: a rotation vector, inertia 2/5 m r^2) and bonds are co-rotational "
+        "beams carrying normal and shear force, bending (and in 3D twisting) moments, "
+        "calibrated to E and nu (nu from 0 to the central value), breaking in tension or "
+        "shear with break_strain (docs/bonds.md); contact with beams is 2D",
         "central")
 
     @property
