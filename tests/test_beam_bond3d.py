@@ -227,3 +227,13 @@ def test_a_bond_breaks_at_its_outer_fibre_in_shear_and_in_torsion():
         q = rest.copy()
         q[1, 3] = np.arcsin(s * tau)                  # the measure: sin of the twist
         assert breaks(one_bond(1.0, 5e-3), q)[:2] == (int(broke > 0), broke)
+
+
+def test_broken_bond_records_name_their_columns():
+    """/broken_bonds' columns attribute names every column: central bonds 6 +
+    dim, beams 8 + dim with mode and energy (3D beams: 11)."""
+    from solver.driver.output import broken_columns
+    assert broken_columns(9).split(", ")[1:4] == ["x", "y", "z"]
+    names = broken_columns(11).split(", ")
+    assert len(names) == 11 and names[7:9] == ["mode", "energy"]
+    assert len(broken_columns(8).split(", ")) == 8 and len(broken_columns(10).split(", ")) == 10

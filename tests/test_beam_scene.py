@@ -113,6 +113,8 @@ def test_beams_break_in_tension_and_shear_the_same_after_a_restart_on_two_ranks(
     for name, path in (("whole", whole), ("short", short)):
         with h5py.File(path) as f:
             b = f["broken_bonds"][()]
+            assert f["broken_bonds"].attrs["columns"] == (
+                "t, x, y, strain, critical strain, temperature, mode, energy, node i, node j")
             got[name] = (b[np.lexsort((b[:, -1], b[:, -2], b[:, 0]))],
                          f["probes/B/displacement"][()],
                          f["partitions/dem"].attrs["released_energy"],

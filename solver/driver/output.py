@@ -107,6 +107,17 @@ def dataset(group, name: str, data):
     return group.create_dataset(name, data=data)
 
 
+def broken_columns(width: int) -> str:
+    """The names of /broken_bonds' ``width`` columns: 6 + dim (8, 9) for central
+    bonds, 8 + dim (10, 11) for beams, which add mode and energy (0: none
+    broke, the midpoint unnamed)."""
+    beams = width >= 10
+    dim = width - (8 if beams else 6)
+    where = ", ".join("xyz"[:dim]) if width else "midpoint"
+    return (f"t, {where}, strain, critical strain, temperature, "
+            f"{'mode, energy, ' if beams else ''}node i, node j")
+
+
 def write(path: str, result, checkpoint=None) -> None:
     """Write ``result`` (and the /checkpoint group: ``checkpoint(f)`` writes it into the
     open file, see :func:`solver.driver.state.group_writer`) to ``path`` atomically:
@@ -138,11 +149,9 @@ def write(path: str, result, checkpoint=None) -> None:
                 for k, v in result.heat.items():
                     dataset(g, k, v)
             if result.broken is not None:
-                dim = result.broken.shape[1] - 6 if result.broken.size else 0
                 d = dataset(f, "broken_bonds", result.broken)
-                where = ", ".join("xyz"[:dim]) if dim else "midpoint"
-                d.attrs["columns"] = (f"t, {where}, strain, critical strain, temperature, "
-                                      "node i, node j")
+                d.attrs["columns"] = broken_columns(result.broken.shape[1] if
+                                                    result.broken.size else 0)
             if checkpoint is not None:
                 checkpoint(f)
         os.replace(tmp, target)

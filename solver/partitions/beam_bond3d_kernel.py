@@ -6,8 +6,10 @@ The law is :mod:`solver.partitions.beam_bond3d`'s (a co-rotational beam of
 circular section between rotating particles, measured in each end's frame);
 this loop evaluates it for every bond b = (i, j) from the rest separation
 dX_b and the particles' q = (u, theta) [n, 6], and adds the forces and the
-torques conjugate to theta (J^T m, m the physical moment) to ``out`` [rows,
-6] (rows >= ``rows`` are another piece's particles).  Called by
+torques conjugate to theta (J^T m, m the physical moment, summed per
+particle first) to ``out`` [rows, 6] (rows >= ``rows`` are another piece's
+particles).  Bonds come sorted by their first particle, so its sums stay in
+registers (as in :mod:`solver.partitions.bond_kernel`).  Called by
 :mod:`solver.partitions.beam_force`; tests/test_beam_bond3d.py checks it
 against the numpy law.
 """
@@ -56,66 +58,67 @@ def _frames(q, R, J):
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
 def _loop(dX, q, R, J, i, j, L0, k_n, k_diag, k_off, k_t, alive, tension, shear, bend,
-          friction, out, rows, snapped, mode):
-    n_snap = 0
-    d = np.empty(3)
-    e0 = np.empty(3)
-    g_i = np.empty(3)
-    g_j = np.empty(3)
-    h_i = np.empty(3)
-    h_j = np.empty(3)
-    P_i = np.empty(3)
-    P_j = np.empty(3)
-    w = np.empty(3)
-    m_i = np.empty(3)
-    m_j = np.empty(3)
-    Q = np.empty((3, 3))
+          friction, out, rows, snapped, mode, M):
+    n_snap, cur = 0, -1
+    fx = fy = fz = mx = my = mz = 0.0
     for b in range(i.size):
+        p = i[b]
+        if p != cur:                     # bonds sorted by i: p's sums stay in registers
+            if 0 <= cur < rows:
+                out[cur, 0] += fx
+                out[cur, 1] += fy
+                out[cur, 2] += fz
+            if cur >= 0:
+                M[cur, 0] += mx
+                M[cur, 1] += my
+                M[cur, 2] += mz
+            cur = p
+            fx = fy = fz = mx = my = mz = 0.0
         if not alive[b]:
             continue
-        p, r = i[b], j[b]
-        for c in range(3):
-            d[c] = dX[b, c] + (q[r, c] - q[p, c])
-            e0[c] = dX[b, c] / L0[b]
-        L = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        r = j[b]
+        d0 = dX[b, 0] + (q[r, 0] - q[p, 0])
+        d1 = dX[b, 1] + (q[r, 1] - q[p, 1])
+        d2 = dX[b, 2] + (q[r, 2] - q[p, 2])
+        inv0 = 1.0 / L0[b]
+        e0, e1, e2 = dX[b, 0] * inv0, dX[b, 1] * inv0, dX[b, 2] * inv0
+        L = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        iL = 1.0 / L
         # a_e = R_e^T d; g_e = e0 x a_e / L
-        ai0 = R[p, 0, 0] * d[0] + R[p, 1, 0] * d[1] + R[p, 2, 0] * d[2]
-        ai1 = R[p, 0, 1] * d[0] + R[p, 1, 1] * d[1] + R[p, 2, 1] * d[2]
-        ai2 = R[p, 0, 2] * d[0] + R[p, 1, 2] * d[1] + R[p, 2, 2] * d[2]
-        aj0 = R[r, 0, 0] * d[0] + R[r, 1, 0] * d[1] + R[r, 2, 0] * d[2]
-        aj1 = R[r, 0, 1] * d[0] + R[r, 1, 1] * d[1] + R[r, 2, 1] * d[2]
-        aj2 = R[r, 0, 2] * d[0] + R[r, 1, 2] * d[1] + R[r, 2, 2] * d[2]
-        g_i[0] = (e0[1] * ai2 - e0[2] * ai1) / L
-        g_i[1] = (e0[2] * ai0 - e0[0] * ai2) / L
-        g_i[2] = (e0[0] * ai1 - e0[1] * ai0) / L
-        g_j[0] = (e0[1] * aj2 - e0[2] * aj1) / L
-        g_j[1] = (e0[2] * aj0 - e0[0] * aj2) / L
-        g_j[2] = (e0[0] * aj1 - e0[1] * aj0) / L
-        # Q = R_i^T R_j: its trace, axial(skew Q) and Q^T e0
-        for s in range(3):
-            for t in range(3):
-                Q[s, t] = R[p, 0, s] * R[r, 0, t] + R[p, 1, s] * R[r, 1, t] + \
-                    R[p, 2, s] * R[r, 2, t]
-        w[0] = 0.5 * (Q[2, 1] - Q[1, 2])
-        w[1] = 0.5 * (Q[0, 2] - Q[2, 0])
-        w[2] = 0.5 * (Q[1, 0] - Q[0, 1])
-        tau = e0[0] * w[0] + e0[1] * w[1] + e0[2] * w[2]
-        hh_i = hh_j = hs = hg = 0.0
-        for c in range(3):
-            h_i[c] = k_diag[b] * g_i[c] + k_off[b] * g_j[c]
-            h_j[c] = k_off[b] * g_i[c] + k_diag[b] * g_j[c]
-            hh_i += h_i[c] * h_i[c]
-            hh_j += h_j[c] * h_j[c]
-            hs += (h_i[c] + h_j[c]) ** 2
-            hg += h_i[c] * g_i[c] + h_j[c] * g_j[c]
+        ai0 = R[p, 0, 0] * d0 + R[p, 1, 0] * d1 + R[p, 2, 0] * d2
+        ai1 = R[p, 0, 1] * d0 + R[p, 1, 1] * d1 + R[p, 2, 1] * d2
+        ai2 = R[p, 0, 2] * d0 + R[p, 1, 2] * d1 + R[p, 2, 2] * d2
+        aj0 = R[r, 0, 0] * d0 + R[r, 1, 0] * d1 + R[r, 2, 0] * d2
+        aj1 = R[r, 0, 1] * d0 + R[r, 1, 1] * d1 + R[r, 2, 1] * d2
+        aj2 = R[r, 0, 2] * d0 + R[r, 1, 2] * d1 + R[r, 2, 2] * d2
+        gi0, gi1, gi2 = (e1 * ai2 - e2 * ai1) * iL, (e2 * ai0 - e0 * ai2) * iL, \
+            (e0 * ai1 - e1 * ai0) * iL
+        gj0, gj1, gj2 = (e1 * aj2 - e2 * aj1) * iL, (e2 * aj0 - e0 * aj2) * iL, \
+            (e0 * aj1 - e1 * aj0) * iL
+        # Q = R_i^T R_j: Q_st = R_i[:, s] . R_j[:, t]
+        q00 = R[p, 0, 0] * R[r, 0, 0] + R[p, 1, 0] * R[r, 1, 0] + R[p, 2, 0] * R[r, 2, 0]
+        q01 = R[p, 0, 0] * R[r, 0, 1] + R[p, 1, 0] * R[r, 1, 1] + R[p, 2, 0] * R[r, 2, 1]
+        q02 = R[p, 0, 0] * R[r, 0, 2] + R[p, 1, 0] * R[r, 1, 2] + R[p, 2, 0] * R[r, 2, 2]
+        q10 = R[p, 0, 1] * R[r, 0, 0] + R[p, 1, 1] * R[r, 1, 0] + R[p, 2, 1] * R[r, 2, 0]
+        q11 = R[p, 0, 1] * R[r, 0, 1] + R[p, 1, 1] * R[r, 1, 1] + R[p, 2, 1] * R[r, 2, 1]
+        q12 = R[p, 0, 1] * R[r, 0, 2] + R[p, 1, 1] * R[r, 1, 2] + R[p, 2, 1] * R[r, 2, 2]
+        q20 = R[p, 0, 2] * R[r, 0, 0] + R[p, 1, 2] * R[r, 1, 0] + R[p, 2, 2] * R[r, 2, 0]
+        q21 = R[p, 0, 2] * R[r, 0, 1] + R[p, 1, 2] * R[r, 1, 1] + R[p, 2, 2] * R[r, 2, 1]
+        q22 = R[p, 0, 2] * R[r, 0, 2] + R[p, 1, 2] * R[r, 1, 2] + R[p, 2, 2] * R[r, 2, 2]
+        tau = 0.5 * (e0 * (q21 - q12) + e1 * (q02 - q20) + e2 * (q10 - q01))
+        kd, ko = k_diag[b], k_off[b]
+        hi0, hi1, hi2 = kd * gi0 + ko * gj0, kd * gi1 + ko * gj1, kd * gi2 + ko * gj2
+        hj0, hj1, hj2 = ko * gi0 + kd * gj0, ko * gi1 + kd * gj1, ko * gi2 + kd * gj2
         N = k_n[b] * (L - L0[b])
         twist = k_t[b] * tau
         if tension[b] < np.inf:          # breakable (BeamBonds3D.breakable, failure)
-            axial = (L - L0[b]) / L0[b]
-            if axial + np.sqrt(max(hh_i, hh_j)) * bend[b] > tension[b]:
+            axial = (L - L0[b]) * inv0
+            hh = max(hi0 * hi0 + hi1 * hi1 + hi2 * hi2, hj0 * hj0 + hj1 * hj1 + hj2 * hj2)
+            s0, s1, s2 = hi0 + hj0, hi1 + hj1, hi2 + hj2
+            if axial + np.sqrt(hh) * bend[b] > tension[b]:
                 broke = 1
-            elif (np.sqrt(hs) / L / (k_n[b] * L0[b]) + abs(twist) * 0.5 * bend[b] >
-                  shear[b] + friction * max(-axial, 0.0)):
+            elif (np.sqrt(s0 * s0 + s1 * s1 + s2 * s2) * iL / (k_n[b] * L0[b]) +
+                  abs(twist) * 0.5 * bend[b] > shear[b] + friction * max(-axial, 0.0)):
                 broke = 2
             else:
                 broke = 0
@@ -125,35 +128,52 @@ def _loop(dX, q, R, J, i, j, L0, k_n, k_diag, k_off, k_t, alive, tension, shear,
                 mode[n_snap] = broke
                 n_snap += 1
                 continue
+        hg = (hi0 * gi0 + hi1 * gi1 + hi2 * gi2 + hj0 * gj0 + hj1 * gj1 + hj2 * gj2)
         # P_e = R_e (h_e x e0) / L
-        xi0 = h_i[1] * e0[2] - h_i[2] * e0[1]
-        xi1 = h_i[2] * e0[0] - h_i[0] * e0[2]
-        xi2 = h_i[0] * e0[1] - h_i[1] * e0[0]
-        xj0 = h_j[1] * e0[2] - h_j[2] * e0[1]
-        xj1 = h_j[2] * e0[0] - h_j[0] * e0[2]
-        xj2 = h_j[0] * e0[1] - h_j[1] * e0[0]
-        for c in range(3):
-            P_i[c] = (R[p, c, 0] * xi0 + R[p, c, 1] * xi1 + R[p, c, 2] * xi2) / L
-            P_j[c] = (R[r, c, 0] * xj0 + R[r, c, 1] * xj1 + R[r, c, 2] * xj2) / L
+        xi0, xi1, xi2 = hi1 * e2 - hi2 * e1, hi2 * e0 - hi0 * e2, hi0 * e1 - hi1 * e0
+        xj0, xj1, xj2 = hj1 * e2 - hj2 * e1, hj2 * e0 - hj0 * e2, hj0 * e1 - hj1 * e0
+        Pi0 = (R[p, 0, 0] * xi0 + R[p, 0, 1] * xi1 + R[p, 0, 2] * xi2) * iL
+        Pi1 = (R[p, 1, 0] * xi0 + R[p, 1, 1] * xi1 + R[p, 1, 2] * xi2) * iL
+        Pi2 = (R[p, 2, 0] * xi0 + R[p, 2, 1] * xi1 + R[p, 2, 2] * xi2) * iL
+        Pj0 = (R[r, 0, 0] * xj0 + R[r, 0, 1] * xj1 + R[r, 0, 2] * xj2) * iL
+        Pj1 = (R[r, 1, 0] * xj0 + R[r, 1, 1] * xj1 + R[r, 1, 2] * xj2) * iL
+        Pj2 = (R[r, 2, 0] * xj0 + R[r, 2, 1] * xj1 + R[r, 2, 2] * xj2) * iL
         # the twist's moment k_t tau R_i B^T e0, B^T e0 = (tr Q e0 - Q^T e0) / 2
-        trQ = Q[0, 0] + Q[1, 1] + Q[2, 2]
-        bt0 = 0.5 * (trQ * e0[0] - (Q[0, 0] * e0[0] + Q[1, 0] * e0[1] + Q[2, 0] * e0[2]))
-        bt1 = 0.5 * (trQ * e0[1] - (Q[0, 1] * e0[0] + Q[1, 1] * e0[1] + Q[2, 1] * e0[2]))
-        bt2 = 0.5 * (trQ * e0[2] - (Q[0, 2] * e0[0] + Q[1, 2] * e0[1] + Q[2, 2] * e0[2]))
-        sc = (N - hg / L) / L
+        trQ = q00 + q11 + q22
+        bt0 = 0.5 * (trQ * e0 - (q00 * e0 + q10 * e1 + q20 * e2))
+        bt1 = 0.5 * (trQ * e1 - (q01 * e0 + q11 * e1 + q21 * e2))
+        bt2 = 0.5 * (trQ * e2 - (q02 * e0 + q12 * e1 + q22 * e2))
+        tw0 = twist * (R[p, 0, 0] * bt0 + R[p, 0, 1] * bt1 + R[p, 0, 2] * bt2)
+        tw1 = twist * (R[p, 1, 0] * bt0 + R[p, 1, 1] * bt1 + R[p, 1, 2] * bt2)
+        tw2 = twist * (R[p, 2, 0] * bt0 + R[p, 2, 1] * bt1 + R[p, 2, 2] * bt2)
+        sc = (N - hg * iL) * iL
+        f0 = -(sc * d0 + Pi0 + Pj0)                            # on j; -f on i
+        f1 = -(sc * d1 + Pi1 + Pj1)
+        f2 = -(sc * d2 + Pi2 + Pj2)
+        fx -= f0
+        fy -= f1
+        fz -= f2
+        mx += -(Pi1 * d2 - Pi2 * d1) + tw0                     # physical moments m = -P x d
+        my += -(Pi2 * d0 - Pi0 * d2) + tw1
+        mz += -(Pi0 * d1 - Pi1 * d0) + tw2
+        if r < rows:
+            out[r, 0] += f0
+            out[r, 1] += f1
+            out[r, 2] += f2
+        M[r, 0] += -(Pj1 * d2 - Pj2 * d1) - tw0
+        M[r, 1] += -(Pj2 * d0 - Pj0 * d2) - tw1
+        M[r, 2] += -(Pj0 * d1 - Pj1 * d0) - tw2
+    if 0 <= cur < rows:
+        out[cur, 0] += fx
+        out[cur, 1] += fy
+        out[cur, 2] += fz
+    if cur >= 0:
+        M[cur, 0] += mx
+        M[cur, 1] += my
+        M[cur, 2] += mz
+    for p in range(rows):                # the torques conjugate to theta: J^T m
         for c in range(3):
-            tw = twist * (R[p, c, 0] * bt0 + R[p, c, 1] * bt1 + R[p, c, 2] * bt2)
-            c1, c2 = (c + 1) % 3, (c + 2) % 3
-            m_i[c] = -(P_i[c1] * d[c2] - P_i[c2] * d[c1]) + tw
-            m_j[c] = -(P_j[c1] * d[c2] - P_j[c2] * d[c1]) - tw
-        for c in range(3):
-            f = -(sc * d[c] + P_i[c] + P_j[c])                  # on j; -f on i
-            if p < rows:
-                out[p, c] -= f
-                out[p, 3 + c] += J[p, 0, c] * m_i[0] + J[p, 1, c] * m_i[1] + J[p, 2, c] * m_i[2]
-            if r < rows:
-                out[r, c] += f
-                out[r, 3 + c] += J[r, 0, c] * m_j[0] + J[r, 1, c] * m_j[1] + J[r, 2, c] * m_j[2]
+            out[p, 3 + c] += J[p, 0, c] * M[p, 0] + J[p, 1, c] * M[p, 1] + J[p, 2, c] * M[p, 2]
     return n_snap
 
 
@@ -173,7 +193,8 @@ def beam_forces3d(bonds, q, out, rows=None, accumulate=False, snapped=None, mode
     _frames(q, R, J)
     return _loop(bonds.rest, q, R, J, bonds.i, bonds.j, bonds.L0, bonds.k_n, bonds.k_diag,
                  bonds.k_off, bonds.k_t, bonds.alive, bonds.tension, bonds.shear, bonds.bend,
-                 bonds.friction, out, len(out) if rows is None else rows, snapped, mode)
+                 bonds.friction, out, len(out) if rows is None else rows, snapped, mode,
+                 np.zeros((len(q), 3)))
 
 
 _NONE = np.zeros(0, np.int64)
