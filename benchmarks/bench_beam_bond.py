@@ -47,6 +47,43 @@ from solver.partitions.bond_kernel import bond_forces  # noqa: E402
 BOND_BYTES, PARTICLE_BYTES = 73, 72
 
 
+def report(space, x, i, j, k, L, u, t_loop, t_numpy, agree, bond_bytes, particle_bytes,
+           repeats, arithmetic) -> list[str]:
+    """The page's lines: the beam loop's time ``t_loop`` against numpy's
+    ``t_numpy``, the central-bond loop on the same bonds (timed here, at the
+    displacements ``u``) and the least traffic at the triad's bandwidth."""
+    dX, u, out = x[j] - x[i], np.ascontiguousarray(u), np.zeros(x.shape)
+    alive, limit, snapped = np.ones(i.size, bool), np.full(i.size, np.inf), np.zeros(i.size, np.int64)
+    central = (dX, u, i, j, k, L, alive, limit, out, len(x), snapped, False)
+    bond_forces(*central)
+    t_central = best(lambda: bond_forces(*central), repeat=5, number=10)
+    bw = triad()
+    nb, n = i.size, len(x)
+    traffic = nb * bond_bytes + n * particle_bytes
+    t_limit = traffic / bw
+    return [f"# {space} beam bonds: the compiled loop against the bandwidth limit and numpy", "",
+            f"Random packing of {n} particles, {nb} beam bonds ({2 * nb / n:.2f} per particle); "
+            f"one force-and-torque evaluation, best of {repeats} in one process.  "
+            f"Least traffic: {bond_bytes} B per bond + {particle_bytes} B per particle = "
+            f"{traffic / 1e6:.1f} MB per evaluation; triad bandwidth here "
+            f"{bw / 1e9:.1f} GB/s.", "",
+            "| evaluation | ms | ns per bond | GB/s of least traffic | / triad | vs numpy |",
+            "|---|---|---|---|---|---|",
+            f"| compiled loop | {1e3 * t_loop:.2f} | {1e9 * t_loop / nb:.2f} | "
+            f"{traffic / t_loop / 1e9:.1f} | {t_limit / t_loop:.2f} | "
+            f"{t_numpy / t_loop:.1f}x faster |",
+            f"| numpy law (reference) | {1e3 * t_numpy:.2f} | {1e9 * t_numpy / nb:.2f} | "
+            f"{traffic / t_numpy / 1e9:.2f} | {t_limit / t_numpy:.3f} | 1 |",
+            f"| central bonds, no rotation (bond_kernel) | {1e3 * t_central:.2f} | "
+            f"{1e9 * t_central / nb:.2f} | | | |",
+            f"| bandwidth limit (least traffic / triad) | {1e3 * t_limit:.2f} | "
+            f"{1e9 * t_limit / nb:.2f} | {bw / 1e9:.1f} | 1 | |", "",
+            f"The loop and numpy agree to {agree:.1e} of the largest force.  The loop runs at "
+            f"{100 * t_limit / t_loop:.0f} % of the bandwidth limit: "
+            + (f"it is limited by arithmetic ({arithmetic}), not by memory."
+               if t_loop > 2 * t_limit else "it is close to the memory limit.")]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -65,38 +102,10 @@ def main(argv=None):
     agree = max(np.abs(out[:, :2] - f).max(), np.abs(out[:, 2] - t).max()) / np.abs(f).max()
     t_loop = best(lambda: beam_forces(bonds, q, out), repeat=5, number=10)
     t_numpy = best(lambda: bonds.forces(q[:, :2], q[:, 2]), repeat=3, number=2)
-    dX, u2, out2 = x[j] - x[i], np.ascontiguousarray(q[:, :2]), np.zeros((len(x), 2))
-    alive, limit, snapped = np.ones(i.size, bool), np.full(i.size, np.inf), np.zeros(i.size, np.int64)
-    central = (dX, u2, i, j, k, L, alive, limit, out2, len(x), snapped, False)
-    bond_forces(*central)
-    t_central = best(lambda: bond_forces(*central), repeat=5, number=10)
-    bw = triad()
-    nb, n = i.size, len(x)
-    traffic = nb * BOND_BYTES + n * PARTICLE_BYTES
-    t_limit = traffic / bw
-    lines = ["# 2D beam bonds: the compiled loop against the bandwidth limit and numpy", "",
-             f"Random packing of {n} particles, {nb} beam bonds ({2 * nb / n:.2f} per particle); "
-             "one force-and-torque evaluation, best of 5 x 10 (numpy: 3 x 2) in one process.  "
-             f"Least traffic: {BOND_BYTES} B per bond + {PARTICLE_BYTES} B per particle = "
-             f"{traffic / 1e6:.1f} MB per evaluation; triad bandwidth here "
-             f"{bw / 1e9:.1f} GB/s.", "",
-             "| evaluation | ms | ns per bond | GB/s of least traffic | / triad | vs numpy |",
-             "|---|---|---|---|---|---|",
-             f"| compiled loop | {1e3 * t_loop:.2f} | {1e9 * t_loop / nb:.2f} | "
-             f"{traffic / t_loop / 1e9:.1f} | {t_limit / t_loop:.2f} | "
-             f"{t_numpy / t_loop:.1f}x faster |",
-             f"| numpy law (reference) | {1e3 * t_numpy:.2f} | {1e9 * t_numpy / nb:.2f} | "
-             f"{traffic / t_numpy / 1e9:.2f} | {t_limit / t_numpy:.3f} | 1 |",
-             f"| central bonds, no rotation (bond_kernel) | {1e3 * t_central:.2f} | "
-             f"{1e9 * t_central / nb:.2f} | | | |",
-             f"| bandwidth limit (least traffic / triad) | {1e3 * t_limit:.2f} | "
-             f"{1e9 * t_limit / nb:.2f} | {bw / 1e9:.1f} | 1 | |", "",
-             f"The loop and numpy agree to {agree:.1e} of the largest force.  The loop runs at "
-             f"{100 * t_limit / t_loop:.0f} % of the bandwidth limit: "
-             + ("it is limited by arithmetic (a sqrt, three divisions and, beyond 0.01 rad of "
-                "chord rotation, an atan2 per bond), "
-                "not by memory." if t_loop > 2 * t_limit else
-                "it is close to the memory limit.")]
+    lines = report("2D", x, i, j, k, L, q[:, :2], t_loop, t_numpy, agree, BOND_BYTES,
+                   PARTICLE_BYTES, "5 x 10 (numpy: 3 x 2)",
+                   "a sqrt, three divisions and, beyond 0.01 rad of chord rotation, an atan2 "
+                   "per bond")
     write("bench_beam_bond", lines, doc=True)
 
 

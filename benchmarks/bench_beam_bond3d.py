@@ -33,13 +33,13 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-from bench_throughput import best, triad  # noqa: E402
+from bench_beam_bond import report  # noqa: E402
+from bench_throughput import best  # noqa: E402
 from tables import write  # noqa: E402
 
 from solver.model import packing  # noqa: E402
 from solver.partitions.beam_bond3d import BeamBonds3D  # noqa: E402
 from solver.partitions.beam_bond3d_kernel import beam_forces3d  # noqa: E402
-from solver.partitions.bond_kernel import bond_forces  # noqa: E402
 
 BOND_BYTES, PARTICLE_BYTES = 89, 432
 
@@ -63,38 +63,10 @@ def main(argv=None):
     agree = np.abs(out - np.hstack([f, t])).max() / np.abs(f).max()
     t_loop = best(lambda: beam_forces3d(bonds, q, out), repeat=5, number=5)
     t_numpy = best(lambda: bonds.forces(q[:, :3], q[:, 3:]), repeat=3, number=1)
-    dX, u3, out3 = x[j] - x[i], np.ascontiguousarray(q[:, :3]), np.zeros((len(x), 3))
-    alive, limit, snapped = np.ones(i.size, bool), np.full(i.size, np.inf), np.zeros(i.size, np.int64)
-    central = (dX, u3, i, j, k, L, alive, limit, out3, len(x), snapped, False)
-    bond_forces(*central)
-    t_central = best(lambda: bond_forces(*central), repeat=5, number=5)
-    bw = triad()
-    nb, n = i.size, len(x)
-    traffic = nb * BOND_BYTES + n * PARTICLE_BYTES
-    t_limit = traffic / bw
-    lines = ["# 3D beam bonds: the compiled loop against the bandwidth limit and numpy", "",
-             f"Random packing of {n} particles, {nb} beam bonds ({2 * nb / n:.2f} per particle); "
-             "one force-and-torque evaluation, best of 5 x 5 (numpy: 3 x 1) in one process.  "
-             f"Least traffic: {BOND_BYTES} B per bond + {PARTICLE_BYTES} B per particle = "
-             f"{traffic / 1e6:.1f} MB per evaluation; triad bandwidth here "
-             f"{bw / 1e9:.1f} GB/s.", "",
-             "| evaluation | ms | ns per bond | GB/s of least traffic | / triad | vs numpy |",
-             "|---|---|---|---|---|---|",
-             f"| compiled loop | {1e3 * t_loop:.2f} | {1e9 * t_loop / nb:.2f} | "
-             f"{traffic / t_loop / 1e9:.1f} | {t_limit / t_loop:.2f} | "
-             f"{t_numpy / t_loop:.1f}x faster |",
-             f"| numpy law (reference) | {1e3 * t_numpy:.2f} | {1e9 * t_numpy / nb:.2f} | "
-             f"{traffic / t_numpy / 1e9:.2f} | {t_limit / t_numpy:.3f} | 1 |",
-             f"| central bonds, no rotation (bond_kernel) | {1e3 * t_central:.2f} | "
-             f"{1e9 * t_central / nb:.2f} | | | |",
-             f"| bandwidth limit (least traffic / triad) | {1e3 * t_limit:.2f} | "
-             f"{1e9 * t_limit / nb:.2f} | {bw / 1e9:.1f} | 1 | |", "",
-             f"The loop and numpy agree to {agree:.1e} of the largest force.  The loop runs at "
-             f"{100 * t_limit / t_loop:.0f} % of the bandwidth limit"
-             + (": it is limited by arithmetic (per bond two 3 x 3 products for the tilts, "
-                "one for R_i^T R_j and three for the moments back in space: about 200 flops), "
-                "not by memory." if t_loop > 2 * t_limit else
-                ": it is close to the memory limit.")]
+    lines = report("3D", x, i, j, k, L, q[:, :3], t_loop, t_numpy, agree, BOND_BYTES,
+                   PARTICLE_BYTES, "5 x 5 (numpy: 3 x 1)",
+                   "per bond two 3 x 3 products for the tilts, one for R_i^T R_j and three "
+                   "for the moments back in space: about 200 flops")
     write("bench_beam_bond3d", lines, doc=True)
 
 
