@@ -301,9 +301,9 @@ def _random(spec, pts, band, region, lo, hi):
                          f"{ids.size} particles unbonded (none of their Delaunay neighbours "
                          "within the gap); give a larger gap")
     beam = lat.bond == "beam"
-    if beam and dim == 3 and lat.contact is not None:
-        raise SceneError("model.lattice.contact: rotating particles (bond: beam) touch in 2D "
-                         "only; a 3D beam model takes no contact")
+    if beam and dim == 3 and lat.contact is not None and lat.contact.rolling_friction:
+        raise SceneError("model.lattice.contact.rolling_friction: rolling resistance is 2D; "
+                         "3D rotating particles touch with shear springs and friction only")
     psi = eta = 0.0
     try:
         bulk = not beam and _above(mat, dim, spread, gap, lat.seed)

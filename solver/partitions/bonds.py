@@ -148,7 +148,7 @@ class BondForce(Force):
         self._bonded_contact = (particles, mass)
         self.contact = Contact(particles, settings, self.i, self.j, mass, lay.n_owned,
                                rest=self.X, decides=not split, ids=self.ids, dt=part.dt,
-                               rotary=self.dim > self.space)
+                               rotary=self.dim - self.space)
         if split:
             mine = particles[particles < held.size]
             self.halo = ContactHalo(part.comm, self.contact.reach, mine[mine < lay.n_owned],

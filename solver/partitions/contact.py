@@ -34,15 +34,17 @@ A pair bonded at rest is never in contact while its bond lives; once the bond
 breaks, the two touch again only when pressed closer than 2r, so a crack
 that opens transmits nothing and a crack that closes transmits compression.
 
-Rotating particles (``rotary``: 2D beam models, u's last column the
-rotation, out's the torque): the contact point lies half way between the
-centres, l = |x_j - x_i| / 2 from each; the shear displacement also grows by
--l (dtheta_i + dtheta_j) t (t = z x n: a pair turning rigidly with its
-particles strains nothing), the tangential force's moment -l n x f_t turns
-both particles (the two balance the pair's forces' moment: angular momentum
-is kept), and with ``rolling_friction`` mu_r a rolling spring
-k_r = k_t (r/2)^2 on the relative rotation theta_i - theta_j since the
-contact began turns them apart, capped at mu_r (r/2) f_n.
+Rotating particles (``rotary``: beam models' rotations, u's last column
+(2D) or three (3D, rotation vectors), out's the torques): the contact point
+lies half way between the centres, l = |x_j - x_i| / 2 from each; the shear
+displacement also grows by -l (dtheta_i + dtheta_j) x n (2D: about z; a
+pair turning rigidly with its particles strains nothing), the tangential
+force's moment -l n x f_t turns both particles (the two balance the pair's
+forces' moment: angular momentum is kept; in 3D the moment enters the
+rotation vector's DOFs as it is, first order in the rotation), and in 2D
+with ``rolling_friction`` mu_r a rolling spring k_r = k_t (r/2)^2 on the
+relative rotation theta_i - theta_j since the contact began turns them
+apart, capped at mu_r (r/2) f_n.
 
 Distances are taken as (X_j - X_i) + (u_j - u_i) from the rest positions X
 and the displacements u, as the bonds take theirs (see
@@ -124,7 +126,7 @@ class Contact:
         self.ratio = settings.tangential_stiffness
         self.rolling = settings.rolling_friction       # mu_r (0: no rolling resistance)
         self.mass = mass
-        self.rotary = bool(rotary)        # (2D) u's last column: rotations, out's: torques
+        self.turns = int(rotary)          # u's last columns: rotations (2D 1, 3D 3), out's: torques
         self.ids, self.dt = ids, dt
         self._shear = None                            # (xi, separation, live) per pair of _mine
         self._pending = None                          # a history table for the next build
@@ -141,11 +143,14 @@ class Contact:
         self._mine = None                             # the candidates with an owned end
         self._last = None                  # (i, j, n, tangent k, f_n, shear, d) of the last forces
         dim = rest.shape[1] if rest is not None else None
-        if self.rotary and dim not in (2, None):
-            raise ValueError("contact: rotating particles are 2D (one rotation each)")
-        if self.rolling and not (self.rotary and self.history):
+        if self.turns and dim is not None and self.turns != ROTATIONS[dim]:
+            raise ValueError(f"contact: rotating particles turn by {ROTATIONS[dim]} "
+                             f"rotation(s) in {dim}D, not {self.turns}")
+        if self.rolling and not (self.turns and self.history):
             raise ValueError("contact: rolling resistance needs rotating particles and shear "
                              "springs (friction_model history)")
+        if self.rolling and self.turns == 3:
+            raise ValueError("contact: rolling resistance is 2D")
         self._code = KERNEL_LAWS.get(self.law.name) if compiled and dim in (2, 3, None) else None
         self.compiled = self._code is not None
         if self.compiled:      # lazy: numba (about 1 s to import) loads only with contact
@@ -165,7 +170,7 @@ class Contact:
 
     def _moved(self, u):
         """The translations of ``u`` (without the rotations of rotating particles)."""
-        return u[:, :-1] if self.rotary else u
+        return u[:, :u.shape[1] - self.turns]
 
     def _points(self, u):
         """The positions X + u of the contact particles."""
@@ -229,7 +234,7 @@ class Contact:
         self._mine = self._subset((i < self.owned) | (j < self.owned))
         if merge:
             self._shear = self._kern.carry(before[0], before[1], *self._shear, i, j)
-        dim = self._dim = u.shape[1] - self.rotary
+        dim = self._dim = u.shape[1] - self.turns
         if not merge and self.history:
             self._take_over(table, dim)
         self._pending = None
@@ -247,7 +252,7 @@ class Contact:
         m = i.size
         self._forces, self._viscous = self._kern.LOOPS[dim]        # (2D and 3D only)
         none = np.zeros((0, dim))
-        width = dim + 2 * self.rotary
+        width = dim + 2 * self.turns
         xi, d, live = self._shear if self.history else (none, np.zeros((m, width)),
                                                         np.zeros(0, bool))
         self._eval = dict(pi=np.ascontiguousarray(i), pj=np.ascontiguousarray(j),
@@ -298,11 +303,10 @@ class Contact:
 
     def _oriented(self, sep, sign):
         """Separations ``sep`` turned to orientations ``sign`` (+-1 per pair); a
-        rotating pair's sum of rotations (the column after the separation) is
+        rotating pair's sum of rotations (the columns after the separation) is
         the same either way, their difference (the last) changes sign."""
         flip = np.repeat(sign[:, None], sep.shape[1], axis=1)
-        if self.rotary:
-            flip[:, self._dim] = 1.0
+        flip[:, self._dim:self._dim + self.turns] = 1.0
         return sep * flip
 
     def restore(self, keys, xi, sep):
@@ -317,8 +321,8 @@ class Contact:
         """The new candidate pairs' histories from ``table`` (by global ids)."""
         keys, xi, sep = table
         i, j = self._mine[0], self._mine[1]
-        new_xi, new_sep = np.zeros((i.size, dim + self.rotary)), np.zeros((i.size,
-                                                                            dim + 2 * self.rotary))
+        new_xi = np.zeros((i.size, dim + self.turns))
+        new_sep = np.zeros((i.size, dim + 2 * self.turns))
         live = np.zeros(i.size, bool)
         if keys.size and i.size:
             mine, sign = self._global(i, j)
@@ -341,10 +345,13 @@ class Contact:
         now = d if turns is None else np.column_stack([d, *turns])
         step = np.where(was[:, None], now - sep_all[at], 0.0)
         dim = d.shape[1]
-        if turns is not None:          # the contact point rolls by -l (dtheta_i + dtheta_j) t
-            roll = 0.5 * step[:, dim] * np.linalg.norm(d, axis=1)
-            phi = xi[:, dim] + step[:, dim + 1] if self.rolling else np.zeros(len(at))
-            step, xi = step[:, :dim] - roll[:, None] * _tangent(unit), xi[:, :dim]
+        T, phi = self.turns, None
+        if turns is not None:          # the contact point rolls by -l (dtheta_i + dtheta_j) x n
+            # (3D: about the mid separation, second order in the step; in 2D the
+            # difference is along n)
+            roll = -0.5 * _spin(step[:, dim:dim + T], d if T == 1 else d - 0.5 * step[:, :dim])
+            phi = xi[:, dim] + step[:, dim + T] if self.rolling else None
+            step, xi = step[:, :dim] + roll, xi[:, :dim]
         length = np.linalg.norm(xi, axis=1)
         xi -= np.einsum("pc,pc->p", xi, unit)[:, None] * unit          # into the tangent plane
         turned = np.linalg.norm(xi, axis=1)
@@ -359,7 +366,7 @@ class Contact:
         xi *= shrink[:, None]
         held = 0.5 * kt * np.einsum("pc,pc->p", xi, xi)
         moment = None
-        if turns is not None:          # the rolling spring k_r = k_t R*^2, at most mu_r R* f_n
+        if phi is not None:            # the rolling spring k_r = k_t R*^2, at most mu_r R* f_n
             kr, arm = 0.25 * self.radius ** 2 * kt, 0.5 * self.radius
             most = self.rolling * arm * fn / np.where(kr > 0, kr, 1.0)
             kept = np.clip(phi, -most, most)
@@ -367,6 +374,8 @@ class Contact:
             held = held + 0.5 * kr * kept ** 2
             moment = kr * kept
             xi = np.column_stack([xi, kept])
+        elif turns is not None:        # (no rolling spring: its columns stay zero)
+            xi = np.column_stack([xi, np.zeros((len(at), T))])
         live_all[:] = False
         live_all[at] = True
         xi_all[at], sep_all[at] = xi, now
@@ -384,8 +393,7 @@ class Contact:
         overlap = 2 * self.radius - np.linalg.norm(sep_all[gone, :self._dim], axis=1)
         _, k, _ = self.law.evaluate(np.maximum(overlap, 0.0))
         xi = xi_all[gone].copy()
-        if self.rotary:                            # the rolling spring: k_r = k_t R*^2
-            xi[:, -1] *= 0.5 * self.radius
+        xi[:, self._dim:] *= 0.5 * self.radius     # the rolling spring: k_r = k_t R*^2
         held = 0.5 * self.ratio * k * np.einsum("pc,pc->p", xi, xi)
         return float(np.dot(held, self._share(self._mine[0][gone], self._mine[1][gone])))
 
@@ -443,7 +451,7 @@ class Contact:
             self.energy, self._slipped = self._forces(
                 e["pi"], e["pj"], e["bond"], alive, e["rest"], u, self.radius, self._code,
                 self.law.stiffness, self.history, self.ratio, self.mu, e["xi"], e["live"],
-                e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned, self.rotary,
+                e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned, self.turns,
                 self.rolling)
             self._fresh = True
             return
@@ -460,14 +468,16 @@ class Contact:
         share = self._share(i, j)
         shear = None
         if self.history:
-            turns = (u[i, -1] + u[j, -1], u[i, -1] - u[j, -1]) if self.rotary else None
+            T = u.shape[1] - self.turns
+            turns = (u[i, T:] + u[j, T:], u[i, T:] - u[j, T:]) if self.turns else None
             spring, held, sticks, slipped, moment = self._spring(at, d, unit, k, f, turns)
             force += spring
             energy = energy + held
             self._slipped = float(np.dot(slipped, share)) + let_go
             shear = (spring, sticks)
-            if self.rotary:
+            if self.turns:
                 self._torques(out, rows, i, j, d, spring)
+            if self.rolling:
                 for end, sign in ((i, -1.0), (j, 1.0)):      # the rolling springs' moments
                     keep = end < rows
                     out[:, -1] += sign * np.bincount(end[keep], moment[keep], minlength=rows)
@@ -479,11 +489,16 @@ class Contact:
     def _torques(out, rows, i, j, d, f):
         """Add the moment -l n x f of tangential forces ``f`` on j (l = |d| / 2,
         the contact point half way) to both particles' torques (out's last
-        column)."""
-        torque = -0.5 * (d[:, 0] * f[:, 1] - d[:, 1] * f[:, 0])
+        column in 2D, last three in 3D)."""
+        if d.shape[1] == 2:
+            torque = -0.5 * (d[:, :1] * f[:, 1:] - d[:, 1:] * f[:, :1])
+        else:
+            torque = -0.5 * np.cross(d, f)
+        first = out.shape[1] - torque.shape[1]
         for end in (i, j):
             keep = end < rows
-            out[:, -1] += np.bincount(end[keep], torque[keep], minlength=rows)
+            for c in range(torque.shape[1]):
+                out[:, first + c] += np.bincount(end[keep], torque[keep, c], minlength=rows)
 
     def touching(self):
         """(i, j) local indices of the pairs in contact at the last :meth:`forces`."""
@@ -510,7 +525,7 @@ class Contact:
             return slipped + self._viscous(
                 e["pi"], e["pj"], e["touch"], e["d"], e["dist"], self.radius, self._code,
                 self.law.stiffness, self.history, e["xi"], e["sticks"], self.mass, v, self.zeta,
-                self.mu, self.zeta_t, self.ratio, out, rows, self.owned, self.rotary)
+                self.mu, self.zeta_t, self.ratio, out, rows, self.owned, self.turns)
         if self._last is None:
             return slipped
         i, j, unit, k, fn, shear, d_last = self._last
@@ -527,9 +542,9 @@ class Contact:
             power += c * vn ** 2
         if self.mu:
             vt = dv - vn[:, None] * unit                         # sliding velocity of j on i
-            if self.rotary:                              # the spins' part -l (w_i + w_j) t
-                vt -= (0.5 * (v[i, -1] + v[j, -1]) * np.linalg.norm(d_last, axis=1))[:, None] * \
-                    _tangent(unit)
+            if self.turns:                       # the spins' part -l (w_i + w_j) x n
+                T = v.shape[1] - self.turns
+                vt -= 0.5 * _spin(v[i, T:] + v[j, T:], d_last)
             speed = np.linalg.norm(vt, axis=1)
             if shear is None:
                 ft = np.minimum(self.mu * fn, 2 * self.zeta_t * root * speed)
@@ -543,15 +558,21 @@ class Contact:
             friction[slide] = -(ft[slide] / speed[slide])[:, None] * vt[slide]
             force += friction
             power += ft * speed
-            if self.rotary:
+            if self.turns:
                 self._torques(out, rows, i, j, d_last, friction)
         _scatter(out, rows, i, j, force)
         return slipped + float(np.dot(power, self._share(i, j)))
 
 
-def _tangent(unit):
-    """t = z x n of 2D unit vectors ``unit``."""
-    return np.column_stack([-unit[:, 1], unit[:, 0]])
+ROTATIONS = {2: 1, 3: 3}      # a rotating particle's rotations: about z, a rotation vector
+
+
+def _spin(w, d):
+    """w x d of spins ``w`` ([n] or [n, 1] about z in 2D, [n, 3]) and vectors ``d`` [n, dim]."""
+    if d.shape[1] == 2:
+        w = w.reshape(-1)
+        return np.column_stack([-w * d[:, 1], w * d[:, 0]])
+    return np.cross(w, d)
 
 
 def _scatter(out, rows, i, j, f):

@@ -52,13 +52,14 @@ def loops(dim: int):
         receives this call's (a pair that does not touch keeps its last); with
         ``history`` the shear displacements ``xi`` of the pairs ``live``
         (touching at the last call) advance from it to this call.
-        ``rotary`` (2D): column ``dim`` of ``u`` and ``out`` is each particle's
-        rotation and torque, columns ``dim`` and ``dim + 1`` of ``d`` each
-        pair's sum and difference theta_i - theta_j of rotations at the last
-        call; the contact point, half way between the centres, rolls by
-        -l (dtheta_i + dtheta_j) t (l = r / 2, t = z x n) and the shear force's
-        moment -l n x f acts on both particles.  With ``rolling`` mu_r > 0
-        (and ``history``) a rolling spring k_r = k_t R*^2 (R* = radius / 2) on
+        ``rotary``: the rotations per particle (2D 1, 3D 3, else 0): columns
+        ``dim`` on of ``u`` and ``out`` are each particle's rotations and
+        torques, the ``rotary`` columns of ``d`` after the separation each
+        pair's sum theta_i + theta_j of rotations at the last call, the next
+        ones their difference; the contact point, half way between the
+        centres, rolls by -l (dtheta_i + dtheta_j) x n (l = r / 2) and the
+        shear force's moment -l n x f acts on both particles.  With
+        ``rolling`` mu_r > 0 (2D, and ``history``) a rolling spring k_r = k_t R*^2 (R* = radius / 2) on
         the relative rotation phi (column ``dim`` of ``xi``) since the contact
         began turns i by -k_r phi and j by k_r phi, at most mu_r R* f_n
         (beyond it rolls, the energy the cap takes dissipated)."""
@@ -68,7 +69,9 @@ def loops(dim: int):
         slipped = 0.0
         two_r = 2.0 * radius
         step = np.zeros(dim)
-        width = dim + 1 if rotary else dim         # forces (and the torque)
+        width = dim + rotary                       # forces (and the torques)
+        turned = np.zeros(3)                       # the pair's rotations since the last call
+        roll3 = np.zeros(3)                        # (3D) the contact point's roll
         run = np.zeros(width)                      # the sum on row pi[p] over its run of pairs
         cur = -1
         for p in range(pi.size):
@@ -99,8 +102,8 @@ def loops(dim: int):
                     for c in range(dim):
                         r_old += d[p, c] * d[p, c]
                         held += xi[p, c] * xi[p, c]
-                    if rotary:                     # and the rolling spring's, k_r = k_t R*^2
-                        held += 0.25 * radius * radius * xi[p, dim] * xi[p, dim]
+                    for c in range(rotary):        # and the rolling spring's, k_r = k_t R*^2
+                        held += 0.25 * radius * radius * xi[p, dim + c] * xi[p, dim + c]
                     _, k_old, _ = _law(law, stiff, max(two_r - np.sqrt(r_old), 0.0))
                     share = 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0))
                     slipped += share * 0.5 * ratio * k_old * held
@@ -111,14 +114,15 @@ def loops(dim: int):
                 x = step[c]
                 step[c] = x - d[p, c]
                 d[p, c] = x
-            turned = twisted = 0.0
-            if rotary:                         # the pair's rotations since the last call
-                spin = u[a, dim] + u[b, dim]
-                turned = spin - d[p, dim]
-                d[p, dim] = spin
-                twist = u[a, dim] - u[b, dim]
-                twisted = twist - d[p, dim + 1]
-                d[p, dim + 1] = twist
+            twisted = 0.0
+            for c in range(rotary):            # the pair's rotations since the last call
+                spin = u[a, dim + c] + u[b, dim + c]
+                turned[c] = spin - d[p, dim + c]
+                d[p, dim + c] = spin
+                twist = u[a, dim + c] - u[b, dim + c]
+                if c == 0:
+                    twisted = twist - d[p, dim + rotary]
+                d[p, dim + rotary + c] = twist
             inv = 1.0 / r
             f, kp, e = _law(law, stiff, overlap)
             share = 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0))
@@ -141,10 +145,20 @@ def loops(dim: int):
                     for c in range(dim):
                         n = d[p, c] * inv
                         xi[p, c] = (xi[p, c] - proj * n) * scale + (step[c] - step_n * n)
-                    if rotary:     # rolled by -l (dtheta_i + dtheta_j) t, t = (-n_y, n_x)
-                        roll = 0.5 * turned        # l x (turns) / r: d carries the r
+                    if rotary == 1:    # rolled by -l (dtheta_i + dtheta_j) x n (d carries r)
+                        roll = 0.5 * turned[0]
                         xi[p, 0] += roll * d[p, 1]
                         xi[p, 1] -= roll * d[p, 0]
+                    elif rotary == 3:  # about the mid separation (second order in the
+                        rn = 0.0       # step), its tangential part
+                        for c in range(3):
+                            c1, c2 = (c + 1) % 3, (c + 2) % 3
+                            roll3[c] = -0.5 * (turned[c1] * (d[p, c2] - 0.5 * step[c2]) -
+                                               turned[c2] * (d[p, c1] - 0.5 * step[c1]))
+                            rn += roll3[c] * d[p, c]
+                        rn *= inv * inv
+                        for c in range(3):
+                            xi[p, c] += roll3[c] - rn * d[p, c]
                     for c in range(dim):
                         length2 += xi[p, c] * xi[p, c]
                     if rolling > 0.0:
@@ -187,11 +201,18 @@ def loops(dim: int):
                 if b < rows:
                     out[b, c] += g
                 run[c] -= g
-            if rotary and history:     # -l n x (-k_t xi) on both, l = r / 2
+            if rotary == 1 and history:     # -l n x (-k_t xi) on both, l = r / 2
                 torque = 0.5 * kt * (d[p, 0] * xi[p, 1] - d[p, 1] * xi[p, 0])
                 if b < rows:
                     out[b, dim] += torque
                 run[dim] += torque
+            elif rotary == 3 and history:
+                for c in range(3):
+                    c1, c2 = (c + 1) % 3, (c + 2) % 3
+                    torque = 0.5 * kt * (d[p, c1] * xi[p, c2] - d[p, c2] * xi[p, c1])
+                    if b < rows:
+                        out[b, dim + c] += torque
+                    run[dim + c] += torque
         if 0 <= cur < rows:
             for c in range(width):
                 out[cur, c] += run[c]
@@ -206,9 +227,10 @@ def loops(dim: int):
         dissipated power (this piece's share).  Without ``history`` friction is
         min(mu f_n, c_t |v_t|) against the sliding velocity; with it, a dashpot
         beside a sticking spring, the two together at most mu f_n, nothing
-        beside a sliding one.  ``rotary``: the contact point's sliding velocity
-        has the particles' spins' part -l (omega_i + omega_j) t, and the
-        friction's moment acts on both (as in :func:`contact_forces`)."""
+        beside a sliding one.  ``rotary`` (rotations per particle): the contact
+        point's sliding velocity has the particles' spins' part -l (omega_i +
+        omega_j) x n, and the friction's moment acts on both (as in
+        :func:`contact_forces`)."""
         power = 0.0
         force = np.zeros(dim)
         vt = np.zeros(dim)
@@ -236,10 +258,15 @@ def loops(dim: int):
                 speed = 0.0
                 for c in range(dim):
                     vt[c] = (v[b, c] - v[a, c]) - vn * d[p, c] / r
-                if rotary:
+                if rotary == 1:
                     roll = 0.5 * (v[a, dim] + v[b, dim])     # l (omega_i + omega_j) / r
                     vt[0] += roll * d[p, 1]
                     vt[1] -= roll * d[p, 0]
+                elif rotary == 3:                            # -(omega_i + omega_j) x d / 2
+                    for c in range(3):
+                        c1, c2 = (c + 1) % 3, (c + 2) % 3
+                        vt[c] -= 0.5 * ((v[a, dim + c1] + v[b, dim + c1]) * d[p, c2] -
+                                        (v[a, dim + c2] + v[b, dim + c2]) * d[p, c1])
                 for c in range(dim):
                     speed += vt[c] * vt[c]
                 speed = np.sqrt(speed)
@@ -256,12 +283,20 @@ def loops(dim: int):
                 if speed > 0.0:
                     for c in range(dim):
                         force[c] -= ft / speed * vt[c]
-                    if rotary:             # -l n x f_t on both
+                    if rotary == 1:        # -l n x f_t on both
                         torque = 0.5 * ft / speed * (d[p, 0] * vt[1] - d[p, 1] * vt[0])
                         if b < rows:
                             out[b, dim] += torque
                         if a < rows:
                             out[a, dim] += torque
+                    elif rotary == 3:
+                        for c in range(3):
+                            c1, c2 = (c + 1) % 3, (c + 2) % 3
+                            torque = 0.5 * ft / speed * (d[p, c1] * vt[c2] - d[p, c2] * vt[c1])
+                            if b < rows:
+                                out[b, dim + c] += torque
+                            if a < rows:
+                                out[a, dim + c] += torque
                 pw += ft * speed
             for c in range(dim):
                 if b < rows:

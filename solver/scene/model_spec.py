@@ -346,7 +346,7 @@ class LatticeSpec:
         "1/2 m r^2; 3D: a rotation vector, inertia 2/5 m r^2) and bonds are co-rotational "
         "beams carrying normal and shear force, bending (and in 3D twisting) moments, "
         "calibrated to E and nu (nu from 0 to the central value), breaking in tension or "
-        "shear with break_strain (docs/bonds.md); contact with beams is 2D",
+        "shear with break_strain (docs/bonds.md); contact turns them (rolling resistance: 2D)",
         "central")
 
     @property
