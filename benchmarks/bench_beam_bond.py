@@ -53,7 +53,8 @@ def report(space, x, i, j, k, L, u, t_loop, t_numpy, agree, bond_bytes, particle
     ``t_numpy``, the central-bond loop on the same bonds (timed here, at the
     displacements ``u``) and the least traffic at the triad's bandwidth."""
     dX, u, out = x[j] - x[i], np.ascontiguousarray(u), np.zeros(x.shape)
-    alive, limit, snapped = np.ones(i.size, bool), np.full(i.size, np.inf), np.zeros(i.size, np.int64)
+    alive, limit = np.ones(i.size, bool), np.full(i.size, np.inf)
+    snapped = np.zeros(i.size, np.int64)
     central = (dX, u, i, j, k, L, alive, limit, out, len(x), snapped, False)
     bond_forces(*central)
     t_central = best(lambda: bond_forces(*central), repeat=5, number=10)

@@ -109,6 +109,9 @@ def bond_blocks(x, i, j, k, shear: float = 0.0) -> np.ndarray:
     return beams_at_rest(d, k, shear * k * np.sum(d * d, axis=1) / 12.0)
 
 
+ROTATING_DOFS = {2: 3, 3: 6}   # a rotating particle's DOFs: (u_x, u_y, theta), (u, theta)
+
+
 def beams_at_rest(d, k_n, k_b) -> np.ndarray:
     """The stiffness blocks at rest of beam bonds of rest separations ``d``:
     :func:`beam_blocks` in 2D, :func:`beam_blocks3d` (torsion
@@ -242,7 +245,7 @@ def _bond_factor(dim: int, spread: float, gap: float, seed: int, shear: float = 
     *_, system, fixed, value = _system(dim, spread, gap, seed, shear)
     A, _, free = _free(*system, fixed, value)
     if shear:
-        moves = np.flatnonzero(free % (2 * dim) < dim)
+        moves = np.flatnonzero(free % 6 < 3)          # (3D beams: u, theta per particle)
         A = A[moves][:, moves]
     return splu(A.tocsc())
 
@@ -277,7 +280,7 @@ def _beam_preconditioner(A, free, factor=None):
 
 
 def _solve_pcg(A, rhs, M, rtol=1e-12):
-    """Conjugate gradients on ``A`` u = ``rhs`` preconditioned by ``M``, to 1e-12.
+    """Conjugate gradients on ``A`` u = ``rhs`` preconditioned by ``M``, to ``rtol``.
     The volumetric term stiffens only the dilatational modes: the central
     bonds' LU takes 15 iterations at eta = 1, 100-150 at eta = 100-1000 (one
     LU of the wider matrix took 3 x longer than a whole solve at small eta)."""
@@ -348,7 +351,7 @@ def _measured(x, i, j, blocks, dofs, u, side, shear=0.0, P=None):
         bend = 0.5 * np.sqrt(shear) * np.maximum(np.abs(4 * phi_i + 2 * phi_j),
                                                  np.abs(2 * phi_i + 4 * phi_j))
     elif shear:                  # 3D: a circular section's (BeamBonds3D.failure), the tilts
-        theta = u.reshape(-1, nd)[:, dim:]                       # g_e = e0 x (du / L + e0 x theta_e)
+        theta = u.reshape(-1, nd)[:, dim:]        # g_e = e0 x (du / L + e0 x theta_e)
         e0 = d / L[:, None]
         g_i, g_j = (np.cross(e0, du / L[:, None] + np.cross(e0, theta[e[inside]]))
                     for e in (i, j))
@@ -424,9 +427,7 @@ def _lower(nu: float, represents: float) -> str:
 
 
 SHEAR_RANGE = (0.0, 2.0)      # psi searched by calibrate_beams
-
-
-BEAM_NU_STEP = 2e-5   # 3D beams' psi search stops this close to nu
+BEAM_NU_STEP = 2e-5           # 3D beams' psi search stops this close to nu
 
 
 def _falling_root(nu_at, goal: float, top: float, tol: float):
@@ -464,7 +465,7 @@ def _falling_root(nu_at, goal: float, top: float, tol: float):
         else:
             (p0, v0), (p1, v1) = tried[-2:]
             psi = p1 - (v1 - goal) * (p1 - p0) / (v1 - v0) if v1 != v0 else -1.0
-    return psi, None
+    return min(tried, key=lambda t: abs(t[1] - goal))[0], None       # (the closest tried)
 
 
 def calibrate_beams(E: float, nu: float, kind: str, spread: float, gap: float,
@@ -474,9 +475,9 @@ def calibrate_beams(E: float, nu: float, kind: str, spread: float, gap: float,
     their axial one, sets nu (the packing's central-bond nu at psi = 0,
     falling through 0 near psi = 1 in 2D and 3D), found by Brent's method on
     the measured nu (to 1e-6 in psi; 3D, where a test takes 1.5-2.5 s: by
-    :func:`_falling_root` to BEAM_NU_STEP, on one sample); kappa then sets E, measured in 3D as
-    the mean of BEAM_SAMPLES samples at that psi (whose mean nu then differs
-    from the one sample's by a few 1e-3).  ValueError for a nu outside the
+    :func:`_falling_root` to BEAM_NU_STEP, on one sample); kappa then sets E,
+    measured in 3D as the mean of BEAM_SAMPLES samples at that psi (whose
+    mean nu then differs from the one sample's by a few 1e-3).  ValueError for a nu outside the
     range psi in SHEAR_RANGE covers, naming it."""
     from scipy.optimize import brentq  # lazy: scipy loads only for a random packing
     dim = 3 if kind == "solid" else 2

@@ -26,7 +26,7 @@ from solver.model.elements import elastic
 from solver.model.interface import Lattice, Shells
 from solver.errors import SceneError
 from solver.memory import zeros_if_zero
-from solver.model.calibration import beams_at_rest
+from solver.model.calibration import ROTATING_DOFS, beams_at_rest
 from solver.model.lattice import cubic, square
 
 
@@ -409,8 +409,7 @@ def _dilatation(zone, n_nodes):
     return dilatation.Dilatation(c, dilatation.counts(bi, bj, n_nodes))
 
 
-ROTATING_DOFS = {2: 3, 3: 6}      # a rotating particle's DOFs: (u_x, u_y, theta), (u, theta)
-INERTIA = {2: 0.5, 3: 0.4}        # its rotary inertia / m r^2: a disc's, a sphere's
+INERTIA = {2: 0.5, 3: 0.4}     # a rotating particle's rotary inertia / m r^2: disc, sphere
 
 
 def _with_zone(scene, mesh, zone, cells, mass):

@@ -397,7 +397,7 @@ def _carried_beams(points, bi, bj, bk, is_band, is_core, band_no, model_id, b_no
     bi, bj = np.where(flip, bj, bi), np.where(flip, bi, bj)
     d = points[bj] - points[bi]
     dim = d.shape[1]
-    nd = 3 if dim == 2 else 6                   # (u, theta) of a rotating particle
+    nd = calibration.ROTATING_DOFS[dim]
     K = calibration.beams_at_rest(d, bk, kb)
     k = b_nodes.shape[1]
 

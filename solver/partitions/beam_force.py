@@ -15,7 +15,7 @@ of :class:`~solver.partitions.bonds.BondForce`, which this extends; the
 other elements (bonds carried to a transition band's nodes) stay linear,
 one MatMult.  With ``model.lattice.break_strain`` a beam breaks in tension
 (its most stretched fibre) or in shear (Mohr-Coulomb), its mode recorded
-(:meth:`BeamBonds.breakable`).  With ``model.lattice.contact`` (2D) particles
+(:meth:`BeamBonds.breakable`).  With ``model.lattice.contact`` particles
 that share no live beam touch as in :mod:`solver.partitions.contact`, whose
 shear springs and friction then also turn them (the contact point rolls
 with their rotations; the tangential force's moment acts on both).  With

@@ -59,10 +59,11 @@ def loops(dim: int):
         ones their difference; the contact point, half way between the
         centres, rolls by -l (dtheta_i + dtheta_j) x n (l = r / 2) and the
         shear force's moment -l n x f acts on both particles.  With
-        ``rolling`` mu_r > 0 (2D, and ``history``) a rolling spring k_r = k_t R*^2 (R* = radius / 2) on
-        the relative rotation phi (column ``dim`` of ``xi``) since the contact
-        began turns i by -k_r phi and j by k_r phi, at most mu_r R* f_n
-        (beyond it rolls, the energy the cap takes dissipated)."""
+        ``rolling`` mu_r > 0 (2D, and ``history``) a rolling spring
+        k_r = k_t R*^2 (R* = radius / 2) on the relative rotation phi (column
+        ``dim`` of ``xi``) since the contact began turns i by -k_r phi and j
+        by k_r phi, at most mu_r R* f_n (beyond it rolls, the energy the cap
+        takes dissipated)."""
         with_rest = rest.shape[0] > 0
         with_bonds = bond.shape[0] > 0
         energy = 0.0
