@@ -9,7 +9,7 @@ nothing; and the bad inputs, each one line (breaking beams with contact,
 restarted on 2 ranks: docs/bonds.md, measured by hand, three calibrations
 being too long for the suite).
 
-The calibration (about 30 s: conjugate gradients on 20^3 samples of 31k
+The calibration (about 15 s: conjugate gradients on 20^3 samples of 31k
 DOFs) is made once per test process (cached) and shared by the tests of this
 module, which run in-process."""
 from __future__ import annotations
