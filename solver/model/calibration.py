@@ -558,7 +558,7 @@ def calibrate_bulk(E: float, nu: float, kind: str, spread: float, gap: float,
     m0 = sampled(dim, float(spread), float(gap), int(seed))
     f0 = _lame_ratio(m0.nu, dim) - goal
     # first guess: an affine network, lambda grows by eta times the particles' volume fraction
-    x, r, i, j, *_ = _system(dim, spread, gap, seed)
+    x, r, i, j, _ = _packing(dim, spread, gap, seed)
     fraction = dilatation.weights(r, i, j, dim).sum() / SIDE[dim] ** dim
     mu = m0.E / (2.0 * (1.0 + m0.nu))
     lo, hi = 0.0, None                 # eta below and above the goal (lambda/mu rises with eta)
