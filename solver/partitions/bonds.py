@@ -61,6 +61,7 @@ class BondForce(Force):
         self._dilatation_sums = dilatation_sums
         P = init()
         self.part = part
+        self._any_broken = False           # whether a bond of the partition has broken
         self.operator = linear_op            # the other elements' -K (None if there are none)
         self.blocks = other_blocks
         self._tangent = tangent              # -K of everything at rest (stability, damping)
@@ -338,7 +339,14 @@ class BondForce(Force):
         bonds and the other elements give, so that a crack's faces are not
         damped as if still bonded; with the volumetric term its stars too
         (:meth:`Volumetric.release_broken`).  Collective on a partition split
-        over ranks (the ghosts' velocities), every piece at once."""
+        over ranks (the ghosts' velocities), every piece at once; until a bond
+        has broken on some piece, it does nothing but ask the pieces so (one
+        small allreduce)."""
+        if not self._any_broken:           # (once a bond has broken, for good)
+            mine, comm = int(not self.alive.all()), self.part.comm
+            self._any_broken = bool(comm.allreduce(mine) if comm.size > 1 else mine)
+            if not self._any_broken:
+                return
         v = self._velocities(v_vec)
         if self.volumetric is not None:         # (collective: before any piece returns)
             self.volumetric.release_broken(v, out_vec.getArray().reshape(self.n_held, self.dim))

@@ -100,13 +100,11 @@ class Volumetric:
         the stars' K v puts (P_i + P_j) g on j and minus that on i, P_p = c_p
         (dim / m_p)^2 sum over p's bonds of g . (v_j - v_i), m_p its bond count
         (whole: all, live: the live ones).  Collective when split (the ghosts'
-        P, two scatters), every piece at every call; a partition on one piece
-        does nothing until a bond has broken."""
+        P, two scatters), every piece at every call (BondForce.release_broken
+        calls it once a bond of the partition has broken)."""
         from solver.partitions.bond_kernel import star_rates, star_release  # lazy: numba's, as the force's
         f = self.force
         n = f.n_held
-        if self._scatter is None and f.alive.all():     # one piece, nothing broken: K_live = K_whole
-            return
         if self._rest is None:
             self._rest = np.ascontiguousarray(f.dX / np.sum(f.dX * f.dX, axis=1)[:, None])
             self._rates = tuple(np.zeros(len(self.P)) for _ in range(2)) + \
