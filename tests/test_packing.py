@@ -89,7 +89,7 @@ def uniaxial_bar(dim, spread, gap, seed, kappa, shear=0.0, bulk=0.0, scale=1.0):
         fixed.append([other * nd + 2])
         value.append([0.0])
     fixed, value = np.concatenate(fixed).astype(np.int64), np.concatenate(value)
-    u = calibration._solve(rows, cols, vals, n, fixed, value, turns=nd == 6)
+    u = calibration._solve(rows, cols, vals, n, fixed, value, rotating=nd == 6)
     from scipy.sparse import coo_matrix
     K = coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
     force = (K @ u).reshape(-1, nd)[right, 0].sum()

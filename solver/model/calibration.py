@@ -78,9 +78,9 @@ class Measured:
     samples: int = 1      # how many samples these are the mean of
 
 
-def _solve(rows, cols, vals, n, fixed, value, turns: bool = False):
+def _solve(rows, cols, vals, n, fixed, value, rotating: bool = False):
     """Displacements of K u = 0 with u[fixed] = value: one sparse LU solve of
-    the free rows (SciPy's SuperLU, COLAMD ordering); ``turns``: 3D beams'
+    the free rows (SciPy's SuperLU, COLAMD ordering); ``rotating``: 3D beams'
     (u, theta) per particle, by conjugate gradients with
     :func:`_beam_preconditioner` (its own translations' incomplete LU: 10 x
     faster than an LU of the whole).  Not PETSc: the calibration runs while rank 0 reads
@@ -90,7 +90,7 @@ def _solve(rows, cols, vals, n, fixed, value, turns: bool = False):
     A, rhs, free = _free(rows, cols, vals, n, fixed, value)
     u = np.zeros(n)
     u[fixed] = value
-    u[free] = (_solve_pcg(A, rhs, _beam_preconditioner(A, free), rtol=1e-9) if turns else
+    u[free] = (_solve_pcg(A, rhs, _beam_preconditioner(A, free), rtol=1e-9) if rotating else
                spsolve(A.tocsc(), rhs))
     return u
 

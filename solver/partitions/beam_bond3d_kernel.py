@@ -177,24 +177,32 @@ def _loop(dX, q, R, J, i, j, L0, k_n, k_diag, k_off, k_t, alive, tension, shear,
     return n_snap
 
 
-def beam_forces3d(bonds, q, out, rows=None, accumulate=False, snapped=None, mode=None) -> int:
+def beam_forces3d(bonds, q, out, rows=None, accumulate=False, snapped=None, mode=None,
+                  frames=None) -> int:
     """out[rows, 6] (+)= forces and torques (conjugate to the rotation vectors)
     of the live bonds of :class:`~solver.partitions.beam_bond3d.BeamBonds3D`
     ``bonds`` at ``q`` [n, 6] = (u, theta); a breakable bond beyond its
     strength breaks first (alive False) and exerts nothing.  Returns how many
     broke, their indices in ``snapped`` and modes (1 tension, 2 shear) in
-    ``mode``."""
+    ``mode``.  ``frames``: :func:`buffers` of len(q) particles to fill (a
+    caller stepping many times keeps one; default: new ones)."""
     if not accumulate:
         out[:] = 0.0
     if snapped is None:
         snapped = mode = _NONE
     q = np.ascontiguousarray(q)
-    R, J = np.empty((len(q), 3, 3)), np.empty((len(q), 3, 3))
+    R, J, M = frames if frames is not None else buffers(len(q))
     _frames(q, R, J)
+    M[:] = 0.0
     return _loop(bonds.rest, q, R, J, bonds.i, bonds.j, bonds.L0, bonds.k_n, bonds.k_diag,
                  bonds.k_off, bonds.k_t, bonds.alive, bonds.tension, bonds.shear, bonds.bend,
-                 bonds.friction, out, len(out) if rows is None else rows, snapped, mode,
-                 np.zeros((len(q), 3)))
+                 bonds.friction, out, len(out) if rows is None else rows, snapped, mode, M)
+
+
+def buffers(m: int):
+    """(R, J, M): the rotation matrices, Jacobians [m, 3, 3] and physical
+    moments [m, 3] of :func:`beam_forces3d`'s m particles."""
+    return np.empty((m, 3, 3)), np.empty((m, 3, 3)), np.empty((m, 3))
 
 
 _NONE = np.zeros(0, np.int64)

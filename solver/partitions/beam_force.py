@@ -53,8 +53,14 @@ class BeamBondForce(BondForce):
             self.beams = BeamBonds(self.i, self.j, self.dX, self.k, k_b)
         else:
             # lazy: as above
-            from solver.partitions.beam_bond3d_kernel import beam_forces3d as beam_forces
+            from solver.partitions.beam_bond3d_kernel import beam_forces3d, buffers
             self.beams = BeamBonds3D(self.i, self.j, self.dX, self.k, k_b, torsion(k_b))
+            kept = [buffers(len(self.X))]       # (held and ghost particles; a halo adds some)
+
+            def beam_forces(bonds, q, *args):
+                if len(kept[0][0]) != len(q):
+                    kept[0] = buffers(len(q))
+                return beam_forces3d(bonds, q, *args, frames=kept[0])
         self._beam_forces = beam_forces
         self.beams.alive = self.alive                    # one mask: breaks, damage, energy
         self._shear_ratio = 1.0

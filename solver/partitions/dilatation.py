@@ -85,12 +85,17 @@ class Volumetric:
                                   self._count, f._snapped, self.c, self.P)
         if snap:
             on_break(f._snapped[:snap].copy())
+        self._to_ghosts(self.P)
+        return self.P
+
+    def _to_ghosts(self, values):
+        """values[held:] = the owners' values[:owned] of the ghost particles
+        (one scalar per particle; collective when split, nothing otherwise)."""
         if self._scatter is not None:
             self._own[:] = 0.0
-            self._own[:self.n_owned] = self.P[:self.n_owned]
+            self._own[:self.n_owned] = values[:self.n_owned]
             self._scatter.scatter(self._vec, self._g_vec, *self._modes)
-            self.P[n:] = self._g
-        return self.P
+            values[self.force.n_held:] = self._g
 
     def release_broken(self, v, out):
         """out += (K_full - K_live) v of the stars at rest: ``out`` holding -K0 v
@@ -111,12 +116,8 @@ class Volumetric:
                 tuple(np.zeros(n) for _ in range(4))
         whole, live, *scratch = self._rates
         star_rates(self._rest, v, f.i, f.j, f.alive, n, self.c, whole, live, *scratch)
-        if self._scatter is not None:
-            for P in (whole, live):
-                self._own[:] = 0.0
-                self._own[:self.n_owned] = P[:self.n_owned]
-                self._scatter.scatter(self._vec, self._g_vec, *self._modes)
-                P[n:] = self._g
+        self._to_ghosts(whole)
+        self._to_ghosts(live)
         star_release(self._rest, f.i, f.j, f.alive, whole, live, out, n)
 
     def last_tensions(self, bonds) -> np.ndarray:
