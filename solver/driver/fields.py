@@ -124,7 +124,8 @@ class FieldWriter(Observer):
         """A frame of the current state at time ``t`` (collective)."""
         self.last = t
         local = [(p.layout.owned, p.U[:p.n_own].reshape(-1, self.dof),
-                  p.V[:p.n_own].reshape(-1, self.dof)) for p in self.parts]
+                  p.V[:p.n_own].reshape(-1, self.dof), p.force.rotation_vectors())
+                 for p in self.parts]
         damage = [(p.layout.owned, p.force.damage()) for p in self.parts
                   if p.force.break_strain is not None]
         chunks = self.comm.gather((local, damage), root=0) if self.comm.size > 1 else \
@@ -135,9 +136,11 @@ class FieldWriter(Observer):
         u, v = np.zeros((self.n, width)), np.zeros((self.n, width))
         broken = np.zeros(self.n) if any(d for _, d in chunks) else None
         for chunk, dmg in chunks:
-            for nodes, uu, vv in chunk:
+            for nodes, uu, vv, turned in chunk:
                 u[nodes, :self.dof] = uu
                 v[nodes, :self.dof] = vv
+                if turned is not None:       # 3D particles: their orientations' rotation vectors
+                    u[nodes[:len(turned)], 3:6] = turned
             for nodes, frac in dmg:
                 broken[nodes] = frac
         flat = u[:, :self.dim].ravel()

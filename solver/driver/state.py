@@ -117,15 +117,17 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
         released = p.force.released if p.force.bonded else 0.0
         local.append((p.name, p.layout.owned, p.state[:, :n].copy(),
                       np.array([p.work, p.dissipated, released]), p.steps,
-                      p.load_memory(), list(p.force.broken), p.force.contact_history()))
+                      p.load_memory(), list(p.force.broken), p.force.contact_history(),
+                      p.force.orientations()))
     chunks = comm.gather(local, root=0) if comm.size > 1 else [local]
     if comm.rank != 0:
         return None
     merged: dict = {}
     for chunk in chunks:
-        for name, nodes, uva, work, steps, loads, broken, contacts in chunk:
+        for name, nodes, uva, work, steps, loads, broken, contacts, turned in chunk:
             m = merged.setdefault(name, {"nodes": [], "uva": [], "work": np.zeros(3), "steps": steps,
-                                         "loads": {}, "broken": [], "contacts": []})
+                                         "loads": {}, "broken": [], "contacts": [],
+                                         "orientations": []})
             m["nodes"].append(nodes)
             m["uva"].append(uva.reshape(3, nodes.size, -1))
             m["work"] += work
@@ -133,6 +135,8 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
             m["broken"] += broken
             if contacts is not None:
                 m["contacts"].append(contacts)
+            if turned is not None:
+                m["orientations"].append(turned)
     parts_out = {}
     for name, m in merged.items():
         nodes = np.concatenate(m["nodes"])
@@ -146,6 +150,9 @@ def collect(k: int, parts, guard, comm, scheme=None) -> dict | None:
         if m["contacts"]:                     # the contacts' shear histories, by pair
             rows = np.concatenate(m["contacts"])
             parts_out[name]["contacts"] = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
+        if m["orientations"]:                 # 3D rotating particles' orientations, by id
+            rows = np.concatenate(m["orientations"])
+            parts_out[name]["orientations"] = rows[np.argsort(rows[:, 0], kind="stable")]
     merged_memory = {}
     for m in memories:
         for key, value in m.items():
@@ -178,6 +185,7 @@ def restore(data: dict, parts, scheme, guard):
         if work.size > 2 and p.force.bonded:      # (older checkpoints: from the rows)
             p.force.released = float(work[2]) if first else 0.0
         p.force.restore_contacts(saved.get("contacts", ()))
+        p.force.restore_orientations(saved.get("orientations", ()))
     scheme.synchronise()
     for p in parts:
         p.force.resume(p)
@@ -203,7 +211,8 @@ def write_group(f, data: dict, meta: dict):
         g.attrs[k] = v
     for name, part in data["parts"].items():
         pg = g.create_group(f"partitions/{name}")
-        for k in ("nodes", "uva", "load_keys", "load_values", "broken", "contacts"):
+        for k in ("nodes", "uva", "load_keys", "load_values", "broken", "contacts",
+                  "orientations"):
             if k in part:
                 dataset(pg, k, part[k])
         pg.attrs["work"] = part["work"]
@@ -279,7 +288,7 @@ def _read(path: str, scene) -> dict:
             for name, pg in g["partitions"].items():
                 parts[name] = {k2: get(pg, k2) if k2 in pg else np.zeros(0)
                                for k2 in ("nodes", "uva", "load_keys", "load_values", "broken",
-                                          "contacts")}
+                                          "contacts", "orientations")}
                 parts[name].update(work=np.atleast_1d(pg.attrs["work"]).astype(float),
                                    steps=int(pg.attrs["steps"]))
                 if not np.all(np.isfinite(parts[name]["uva"])):

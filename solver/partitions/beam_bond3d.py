@@ -3,8 +3,11 @@ bonded-particle model with rotations in solids (``model.lattice.bond: beam``;
 the 2D law is :mod:`solver.partitions.beam_bond`, the compiled loop
 :mod:`solver.partitions.beam_bond3d_kernel`).
 
-A particle carries its displacement u and a rotation vector theta (its
-orientation R = exp([theta]x), Rodrigues' formula).  A bond (i, j) at rest
+A particle carries its displacement u and its orientation R, a rotation
+matrix: in a partition, that of :class:`solver.partitions.orientation.Orientation`,
+which its rotation DOFs advance; the methods here take either the matrices
+[m, 3, 3] or rotation vectors theta [m, 3] (R = exp([theta]x), Rodrigues'
+formula).  A bond (i, j) at rest
 D = X_j - X_i (length L0, direction e0) is a co-rotational beam of circular
 section, measured in each end's own frame, so that a rigid motion of the two
 particles (any translation, any rotation) leaves every measure, and hence
@@ -23,11 +26,10 @@ small motions the Timoshenko beam element in each bending plane with
 torsion (tests/test_beam_bond3d.py checks it against
 :func:`solver.model.calibration.beam_blocks3d`).
 
-Forces, and the torques conjugate to the rotation vectors, are the energy's
-exact gradients, so the law keeps energy under a symplectic integrator:
-the physical moment m on a particle (dE = -m . dw for a spin dw, dR =
-[dw]x R) enters its rotation DOFs as J(theta)^T m, J the left Jacobian of
-the rotation group (dw = J dtheta; the identity at theta = 0).  The loads
+Forces and moments are the energy's exact gradients: f = -dE/du, and the
+moment m on a particle the energy's rate under a spin dw of it (dE = -m . dw
+for dR = [dw]x R), the torque its angular velocity's equation takes (in
+a rotation vector's terms, J(theta)^T m, J the left Jacobian).  The loads
 (h_e = dE/dg_e, the bending moment at end e):
 
     h_i = k_d g_i + k_o g_j,  h_j = k_o g_i + k_d g_j,  P_e = R_e (h_e x e0) / L
@@ -56,31 +58,29 @@ def _cross(a):
 
 
 def _coefficients(t):
-    """(sin t / t, (1 - cos t) / t^2, (t - sin t) / t^3) of angles t >= 0,
-    their series below 1e-3 (round-off otherwise)."""
+    """(sin t / t, (1 - cos t) / t^2) of angles t >= 0, their series below
+    1e-3 (round-off otherwise)."""
     small = t < 1e-3
     s = np.where(small, 1.0, t)
     t2 = t * t
     a = np.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, np.sin(s) / s)
     b = np.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - np.cos(s)) / s ** 2)
-    c = np.where(small, 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0, (s - np.sin(s)) / s ** 3)
-    return a, b, c
+    return a, b
 
 
 def rotations(theta):
     """[n, 3, 3]: R = exp([theta]x) of rotation vectors ``theta`` [n, 3]."""
     theta = np.asarray(theta, float).reshape(-1, 3)
-    a, b, _ = _coefficients(np.linalg.norm(theta, axis=1))
+    a, b = _coefficients(np.linalg.norm(theta, axis=1))
     W = _cross(theta)
     return np.eye(3) + a[:, None, None] * W + b[:, None, None] * (W @ W)
 
 
-def jacobians(theta):
-    """[n, 3, 3]: the left Jacobians J(theta) (a spin dw = J dtheta)."""
-    theta = np.asarray(theta, float).reshape(-1, 3)
-    _, b, c = _coefficients(np.linalg.norm(theta, axis=1))
-    W = _cross(theta)
-    return np.eye(3) + b[:, None, None] * W + c[:, None, None] * (W @ W)
+def frames(rot) -> np.ndarray:
+    """[m, 3, 3]: rotation matrices ``rot`` as they are, or those of rotation
+    vectors ``rot`` [m, 3]."""
+    rot = np.asarray(rot, float)
+    return rot if rot.ndim == 3 else rotations(rot)
 
 
 def _axial(Q):
@@ -123,12 +123,12 @@ class BeamBonds3D:
         self.shear = np.array(np.broadcast_to(np.asarray(shear, float), (n,)))
         self.friction = float(friction)
 
-    def _measures(self, u, theta):
+    def _measures(self, u, rot):
         """(d, L, R_i, R_j, g_i, g_j, tau, Q) at displacements ``u`` [m, 3] and
-        rotation vectors ``theta`` [m, 3]."""
+        orientations ``rot`` (matrices [m, 3, 3] or rotation vectors [m, 3])."""
         d = self.rest + (u[self.j] - u[self.i])
         L = np.linalg.norm(d, axis=1)
-        R = rotations(theta)
+        R = frames(rot)
         R_i, R_j = R[self.i], R[self.j]
         g_i = np.cross(self.e0, np.einsum("bki,bk->bi", R_i, d)) / L[:, None]
         g_j = np.cross(self.e0, np.einsum("bki,bk->bi", R_j, d)) / L[:, None]
@@ -141,9 +141,9 @@ class BeamBonds3D:
         h_j = self.k_off[:, None] * g_i + self.k_diag[:, None] * g_j
         return h_i, h_j
 
-    def failure(self, u, theta):
+    def failure(self, u, rot):
         """(tension strain, shear strain, their limits) of every bond."""
-        d, L, _, _, g_i, g_j, tau, _ = self._measures(u, theta)
+        d, L, _, _, g_i, g_j, tau, _ = self._measures(u, rot)
         h_i, h_j = self._moments(g_i, g_j)
         axial = (L - self.L0) / self.L0
         fibre = axial + np.maximum(np.linalg.norm(h_i, axis=1),
@@ -161,22 +161,22 @@ class BeamBonds3D:
         sub.friction = self.friction
         return sub
 
-    def energies(self, u, theta) -> np.ndarray:
+    def energies(self, u, rot) -> np.ndarray:
         """Each bond's strain energy."""
-        _, L, _, _, g_i, g_j, tau, _ = self._measures(u, theta)
+        _, L, _, _, g_i, g_j, tau, _ = self._measures(u, rot)
         bend = (self.k_diag * (np.sum(g_i * g_i, axis=1) + np.sum(g_j * g_j, axis=1)) +
                 2.0 * self.k_off * np.sum(g_i * g_j, axis=1))
         return 0.5 * (self.k_n * (L - self.L0) ** 2 + bend + self.k_t * tau ** 2)
 
-    def energy(self, u, theta) -> float:
+    def energy(self, u, rot) -> float:
         """The live bonds' strain energy."""
-        return float(np.sum(self.energies(u, theta)[self.alive]))
+        return float(np.sum(self.energies(u, rot)[self.alive]))
 
-    def loads(self, u, theta):
+    def loads(self, u, rot):
         """(f_j [n, 3], m_i [n, 3], m_j [n, 3]): each bond's force on its
         second particle (minus that on the first) and its physical moments on
         both ends."""
-        d, L, R_i, R_j, g_i, g_j, tau, Q = self._measures(u, theta)
+        d, L, R_i, R_j, g_i, g_j, tau, Q = self._measures(u, rot)
         h_i, h_j = self._moments(g_i, g_j)
         P_i = np.einsum("bij,bj->bi", R_i, np.cross(h_i, self.e0)) / L[:, None]
         P_j = np.einsum("bij,bj->bi", R_j, np.cross(h_j, self.e0)) / L[:, None]
@@ -186,26 +186,26 @@ class BeamBonds3D:
         twist = (self.k_t * tau)[:, None] * np.einsum("bij,bkj,bk->bi", R_i, B, self.e0)
         return -dEdd, -np.cross(P_i, d) + twist, -np.cross(P_j, d) - twist
 
-    def resultants(self, u, theta):
+    def resultants(self, u, rot):
         """Each bond's (axial force N, shear force |V|, bending moments |M_i|,
         |M_j|, twisting moment T)."""
-        d, L, _, _, g_i, g_j, tau, _ = self._measures(u, theta)
+        d, L, _, _, g_i, g_j, tau, _ = self._measures(u, rot)
         h_i, h_j = self._moments(g_i, g_j)
         return (self.k_n * (L - self.L0), np.linalg.norm(h_i + h_j, axis=1) / L,
                 np.linalg.norm(h_i, axis=1), np.linalg.norm(h_j, axis=1), self.k_t * tau)
 
-    def virial(self, u, theta, bonds, c) -> float:
+    def virial(self, u, rot, bonds, c) -> float:
         """sum over ``bonds`` of f_c d_c, f the bond's force on its first
         particle, d = x_j - x_i."""
         sub = self.subset(bonds)
         d = sub.rest + (u[sub.j] - u[sub.i])
-        f_j, _, _ = sub.loads(u, theta)
+        f_j, _, _ = sub.loads(u, rot)
         return float(np.sum(np.where(sub.alive, -f_j[:, c] * d[:, c], 0.0)))
 
-    def forces(self, u, theta, m=None):
-        """(forces [m, 3], the torques conjugate to theta [m, 3]) of the live
-        bonds at displacements ``u`` and rotation vectors ``theta``."""
-        f_j, m_i, m_j = (np.where(self.alive[:, None], x, 0.0) for x in self.loads(u, theta))
+    def forces(self, u, rot, m=None):
+        """(forces [m, 3], moments [m, 3]) of the live bonds on the particles
+        at displacements ``u`` and orientations ``rot``."""
+        f_j, m_i, m_j = (np.where(self.alive[:, None], x, 0.0) for x in self.loads(u, rot))
         m = len(u) if m is None else m
         force, moment = np.zeros((m, 3)), np.zeros((m, 3))
         for c in range(3):
@@ -213,5 +213,4 @@ class BeamBonds3D:
                            np.bincount(self.i, f_j[:, c], minlength=m))
             moment[:, c] = (np.bincount(self.i, m_i[:, c], minlength=m) +
                             np.bincount(self.j, m_j[:, c], minlength=m))
-        J = jacobians(np.asarray(theta, float)[:m])
-        return force, np.einsum("pki,pk->pi", J, moment)
+        return force, moment

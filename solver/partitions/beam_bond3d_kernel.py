@@ -1,13 +1,13 @@
 """The compiled loop of the 3D beam bonds (numba): one pass over the particles
-for their rotation matrices R = exp([theta]x) and left Jacobians J, one over
-the bonds.
+for their rotation matrices, one over the bonds.
 
 The law is :mod:`solver.partitions.beam_bond3d`'s (a co-rotational beam of
 circular section between rotating particles, measured in each end's frame);
 this loop evaluates it for every bond b = (i, j) from the rest separation
-dX_b and the particles' q = (u, theta) [n, 6], and adds the forces and the
-torques conjugate to theta (J^T m, m the physical moment, summed per
-particle first) to ``out`` [rows, 6] (rows >= ``rows`` are another piece's
+dX_b, the particles' q = (u, theta) [n, 6] and their orientations
+(:class:`solver.partitions.orientation.Orientation`: R = exp([theta -
+theta_last]x) R(quat), composed here as quaternions), and adds the forces and
+moments to ``out`` [rows, 6] (rows >= ``rows`` are another piece's
 particles).  Bonds come sorted by their first particle, so its sums stay in
 registers (as in :mod:`solver.partitions.bond_kernel`).  Called by
 :mod:`solver.partitions.beam_force`; tests/test_beam_bond3d.py checks it
@@ -20,58 +20,62 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _frames(q, R, J):
-    """R[p] = exp([theta_p]x) and J[p] (the left Jacobian) of every particle."""
-    for p in range(q.shape[0]):
-        tx, ty, tz = q[p, 3], q[p, 4], q[p, 5]
-        t2 = tx * tx + ty * ty + tz * tz
-        if t2 < 1e-6:
-            a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0
-            b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
-            c = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0
+def _frames(q, last, quat, R, turned):
+    """R[p]: the orientation of particle p at q, the quaternion quat[p] (at
+    rotation DOFs last[p]) turned by the increment q[p, 3:] - last[p]; that
+    turned quaternion (normalised) into turned[p]."""
+    for p in range(R.shape[0]):
+        dx, dy, dz = q[p, 3] - last[p, 0], q[p, 4] - last[p, 1], q[p, 5] - last[p, 2]
+        h2 = 0.25 * (dx * dx + dy * dy + dz * dz)          # (half the angle)^2
+        if h2 < 1e-8:
+            c = 1.0 - 0.5 * h2 + h2 * h2 / 24.0
+            s = 0.5 * (1.0 - h2 / 6.0 + h2 * h2 / 120.0)
         else:
-            t = np.sqrt(t2)
-            s = np.sin(t)
-            a = s / t
-            b = (1.0 - np.cos(t)) / t2
-            c = (t - s) / (t2 * t)
-        th = (tx, ty, tz)
-        for r in range(3):
-            for k in range(3):
-                ww = th[r] * th[k] - (t2 if r == k else 0.0)      # [theta]x^2
-                R[p, r, k] = (1.0 if r == k else 0.0) + b * ww
-                J[p, r, k] = (1.0 if r == k else 0.0) + c * ww
-        # + a W (R), + b W (J), W = [theta]x
-        R[p, 0, 1] -= a * tz
-        R[p, 0, 2] += a * ty
-        R[p, 1, 0] += a * tz
-        R[p, 1, 2] -= a * tx
-        R[p, 2, 0] -= a * ty
-        R[p, 2, 1] += a * tx
-        J[p, 0, 1] -= b * tz
-        J[p, 0, 2] += b * ty
-        J[p, 1, 0] += b * tz
-        J[p, 1, 2] -= b * tx
-        J[p, 2, 0] -= b * ty
-        J[p, 2, 1] += b * tx
+            h = np.sqrt(h2)
+            c = np.cos(h)
+            s = 0.5 * np.sin(h) / h
+        x, y, z = s * dx, s * dy, s * dz
+        w0, x0, y0, z0 = quat[p, 0], quat[p, 1], quat[p, 2], quat[p, 3]
+        w = c * w0 - (x * x0 + y * y0 + z * z0)            # (c, x, y, z) quat[p]
+        a = c * x0 + w0 * x + (y * z0 - z * y0)
+        b = c * y0 + w0 * y + (z * x0 - x * z0)
+        e = c * z0 + w0 * z + (x * y0 - y * x0)
+        n = 1.0 / (w * w + a * a + b * b + e * e)
+        n2 = 2.0 * n                                       # 2 / |q|^2: normalised
+        k = np.sqrt(n)
+        turned[p, 0], turned[p, 1], turned[p, 2], turned[p, 3] = w * k, a * k, b * k, e * k
+        R[p, 0, 0] = 1.0 - n2 * (b * b + e * e)
+        R[p, 0, 1] = n2 * (a * b - w * e)
+        R[p, 0, 2] = n2 * (a * e + w * b)
+        R[p, 1, 0] = n2 * (a * b + w * e)
+        R[p, 1, 1] = 1.0 - n2 * (a * a + e * e)
+        R[p, 1, 2] = n2 * (b * e - w * a)
+        R[p, 2, 0] = n2 * (a * e - w * b)
+        R[p, 2, 1] = n2 * (b * e + w * a)
+        R[p, 2, 2] = 1.0 - n2 * (a * a + b * b)
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _flush(out, p, fx, fy, fz, mx, my, mz):
+    """out[p] += (force, moment)."""
+    out[p, 0] += fx
+    out[p, 1] += fy
+    out[p, 2] += fz
+    out[p, 3] += mx
+    out[p, 4] += my
+    out[p, 5] += mz
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False)
-def _loop(dX, q, R, J, i, j, L0, k_n, k_diag, k_off, k_t, alive, tension, shear, bend,
-          friction, out, rows, snapped, mode, M):
+def _loop(dX, q, R, i, j, L0, k_n, k_diag, k_off, k_t, alive, tension, shear, bend,
+          friction, out, rows, snapped, mode):
     n_snap, cur = 0, -1
     fx = fy = fz = mx = my = mz = 0.0
     for b in range(i.size):
         p = i[b]
         if p != cur:                     # bonds sorted by i: p's sums stay in registers
             if 0 <= cur < rows:
-                out[cur, 0] += fx
-                out[cur, 1] += fy
-                out[cur, 2] += fz
-            if cur >= 0:
-                M[cur, 0] += mx
-                M[cur, 1] += my
-                M[cur, 2] += mz
+                _flush(out, cur, fx, fy, fz, mx, my, mz)
             cur = p
             fx = fy = fz = mx = my = mz = 0.0
         if not alive[b]:
@@ -157,52 +161,44 @@ def _loop(dX, q, R, J, i, j, L0, k_n, k_diag, k_off, k_t, alive, tension, shear,
         my += -(Pi2 * d0 - Pi0 * d2) + tw1
         mz += -(Pi0 * d1 - Pi1 * d0) + tw2
         if r < rows:
-            out[r, 0] += f0
-            out[r, 1] += f1
-            out[r, 2] += f2
-        M[r, 0] += -(Pj1 * d2 - Pj2 * d1) - tw0
-        M[r, 1] += -(Pj2 * d0 - Pj0 * d2) - tw1
-        M[r, 2] += -(Pj0 * d1 - Pj1 * d0) - tw2
+            _flush(out, r, f0, f1, f2, -(Pj1 * d2 - Pj2 * d1) - tw0,
+                   -(Pj2 * d0 - Pj0 * d2) - tw1, -(Pj0 * d1 - Pj1 * d0) - tw2)
     if 0 <= cur < rows:
-        out[cur, 0] += fx
-        out[cur, 1] += fy
-        out[cur, 2] += fz
-    if cur >= 0:
-        M[cur, 0] += mx
-        M[cur, 1] += my
-        M[cur, 2] += mz
-    for p in range(rows):                # the torques conjugate to theta: J^T m
-        for c in range(3):
-            out[p, 3 + c] += J[p, 0, c] * M[p, 0] + J[p, 1, c] * M[p, 1] + J[p, 2, c] * M[p, 2]
+        _flush(out, cur, fx, fy, fz, mx, my, mz)
     return n_snap
 
 
 def beam_forces3d(bonds, q, out, rows=None, accumulate=False, snapped=None, mode=None,
-                  frames=None) -> int:
-    """out[rows, 6] (+)= forces and torques (conjugate to the rotation vectors)
-    of the live bonds of :class:`~solver.partitions.beam_bond3d.BeamBonds3D`
-    ``bonds`` at ``q`` [n, 6] = (u, theta); a breakable bond beyond its
-    strength breaks first (alive False) and exerts nothing.  Returns how many
-    broke, their indices in ``snapped`` and modes (1 tension, 2 shear) in
-    ``mode``.  ``frames``: :func:`buffers` of len(q) particles to fill (a
-    caller stepping many times keeps one; default: new ones)."""
+                  orientation=None, R=None) -> int:
+    """out[rows, 6] (+)= forces and moments of the live bonds of
+    :class:`~solver.partitions.beam_bond3d.BeamBonds3D` ``bonds`` at ``q``
+    [n, 6] = (u, theta) and ``orientation`` (an
+    :class:`~solver.partitions.orientation.Orientation` of the first m
+    particles, those the bonds join, its ``turned`` filled with the
+    orientations at q: :meth:`~solver.partitions.orientation.Orientation.keep`
+    keeps them; None: R = exp([theta]x)); a breakable
+    bond beyond its strength breaks first (alive False) and exerts nothing.
+    Returns how many broke, their indices in ``snapped`` and modes (1
+    tension, 2 shear) in ``mode``.  ``R``: an [m, 3, 3] buffer for the
+    rotation matrices (a caller stepping many times keeps one; default: a
+    new one)."""
     if not accumulate:
         out[:] = 0.0
     if snapped is None:
         snapped = mode = _NONE
     q = np.ascontiguousarray(q)
-    R, J, M = frames if frames is not None else buffers(len(q))
-    _frames(q, R, J)
-    M[:] = 0.0
-    return _loop(bonds.rest, q, R, J, bonds.i, bonds.j, bonds.L0, bonds.k_n, bonds.k_diag,
+    if orientation is None:
+        quat, last = np.zeros((len(q), 4)), np.zeros((len(q), 3))
+        quat[:, 0] = 1.0
+        turned = np.empty_like(quat)
+    else:
+        quat, last, turned = orientation.quat, orientation.last, orientation.turned
+    if R is None:
+        R = np.empty((len(quat), 3, 3))
+    _frames(q, last, quat, R, turned)
+    return _loop(bonds.rest, q, R, bonds.i, bonds.j, bonds.L0, bonds.k_n, bonds.k_diag,
                  bonds.k_off, bonds.k_t, bonds.alive, bonds.tension, bonds.shear, bonds.bend,
-                 bonds.friction, out, len(out) if rows is None else rows, snapped, mode, M)
-
-
-def buffers(m: int):
-    """(R, J, M): the rotation matrices, Jacobians [m, 3, 3] and physical
-    moments [m, 3] of :func:`beam_forces3d`'s m particles."""
-    return np.empty((m, 3, 3)), np.empty((m, 3, 3)), np.empty((m, 3))
+                 bonds.friction, out, len(out) if rows is None else rows, snapped, mode)
 
 
 _NONE = np.zeros(0, np.int64)

@@ -1,8 +1,10 @@
 """f_int(u) of a dem partition whose particles rotate, joined by beam bonds
 (``model.lattice.bond: beam``).
 
-Every particle carries (u_x, u_y, theta) in 2D, (u, theta) with theta a
-rotation vector in 3D (the model's nodes have three or six DOFs;
+Every particle carries (u_x, u_y, theta) in 2D, (u, theta) in 3D, theta's
+rate its angular velocity and its orientation kept apart (an
+:class:`~solver.partitions.orientation.Orientation`, advanced after every
+evaluation, in checkpoints; the model's nodes have three or six DOFs:
 :mod:`solver.model.continuum`), and its bonds are the co-rotational beams of
 :mod:`solver.partitions.beam_bond` (2D) or
 :mod:`solver.partitions.beam_bond3d` (3D), evaluated by their compiled loops
@@ -32,6 +34,7 @@ from solver.model.calibration import torsion
 from solver.partitions.beam_bond import BeamBonds
 from solver.partitions.beam_bond3d import BeamBonds3D
 from solver.partitions.bonds import BondForce
+from solver.partitions.orientation import Orientation, vectors
 
 
 class BeamBondForce(BondForce):
@@ -53,15 +56,15 @@ class BeamBondForce(BondForce):
             self.beams = BeamBonds(self.i, self.j, self.dX, self.k, k_b)
         else:
             # lazy: as above
-            from solver.partitions.beam_bond3d_kernel import beam_forces3d, buffers
+            from solver.partitions.beam_bond3d_kernel import beam_forces3d
             self.beams = BeamBonds3D(self.i, self.j, self.dX, self.k, k_b, torsion(k_b))
-            kept = [buffers(len(self.X))]       # (held and ghost particles; a halo adds some)
+            frames = np.empty((self._n_bonded, 3, 3))   # (held and bond ghosts: no halo)
 
             def beam_forces(bonds, q, *args):
-                if len(kept[0][0]) != len(q):
-                    kept[0] = buffers(len(q))
-                return beam_forces3d(bonds, q, *args, frames=kept[0])
+                return beam_forces3d(bonds, q, *args, orientation=self._orientation(q), R=frames)
         self._beam_forces = beam_forces
+        self.orientation = None         # 3D: the particles' Orientation (at the first evaluation)
+        self._pending = ()              # 3D: a checkpoint's orientations (resume takes them)
         self.beams.alive = self.alive                    # one mask: breaks, damage, energy
         self._shear_ratio = 1.0
         if break_strain is not None:
@@ -75,9 +78,30 @@ class BeamBondForce(BondForce):
         return self.dX[bonds] + (u[self.j[bonds], :s] - u[self.i[bonds], :s])
 
     def _split(self, q):
-        """(displacements, rotations) of q: theta [m] in 2D, [m, 3] in 3D."""
+        """(displacements, rotations) of q: theta [m] in 2D, the particles'
+        rotation matrices [m, 3, 3] in 3D (their orientations at q's rotation
+        DOFs)."""
         s = self.space
-        return q[:, :s], (q[:, s] if s == 2 else q[:, s:])
+        if s == 2:
+            return q[:, :s], q[:, s]
+        return q[:, :s], self._orientation(q).frames(q[:self._n_bonded, s:])
+
+    def _orientation(self, q):
+        """The particles' :class:`~solver.partitions.orientation.Orientation`
+        (3D; the first call's q gives exp(theta))."""
+        if self.orientation is None:
+            self.orientation = Orientation(q[:self._n_bonded, 3:])
+        return self.orientation
+
+    def _advance(self, q, kept=False):
+        """3D: the orientations move on to q's rotation DOFs (once per force
+        evaluation, after it; ``kept``: as the compiled loop turned them)."""
+        if self.space == 3:
+            theta = q[:self._n_bonded, 3:]
+            if kept:
+                self.orientation.keep(theta)
+            else:
+                self._orientation(q).advance(theta)
 
     def set_temperature(self, T_node, count=True) -> float:
         """The beams' rest lengths and strengths at the model nodes'
@@ -103,6 +127,7 @@ class BeamBondForce(BondForce):
         if snapped:
             self._break_beams(self._snapped[:snapped].copy(), self._mode[:snapped].copy(), q)
         self._remember(q)
+        self._advance(q, kept=True)
         if self.contact is not None:
             self._add_contact(u_vec, q, out)
 
@@ -145,12 +170,43 @@ class BeamBondForce(BondForce):
         self.broken = [tuple(r[:-2]) + (int(r[-2]), int(r[-1])) for r in mine]
         self.released = float(sum(r[-3] for r in mine))
 
+    def orientations(self):
+        """3D: the rows (id, quaternion, theta at it) of the particles this
+        piece owns (a checkpoint's; None in 2D, where theta is the
+        orientation)."""
+        if self.space == 2 or self.orientation is None:
+            return None
+        return self.orientation.rows(self.ids[:self.part.layout.n_owned])
+
+    def restore_orientations(self, rows):
+        """A checkpoint's orientations (rows of :meth:`orientations`, all
+        pieces'): :meth:`resume` takes them."""
+        self._pending = rows
+
+    def resume(self, part):
+        """After a restore (collective): as :class:`BondForce`'s, and in 3D the
+        particles' orientations are the checkpoint's (exp(theta) for one
+        written before they were kept)."""
+        super().resume(part)
+        if self.space == 3:                # (_u_last: the restored q of held and bond ghosts)
+            self.orientation = Orientation.from_rows(self._u_last[:, 3:],
+                                                     self.ids[:self._n_bonded], self._pending)
+            self._pending = ()
+
+    def rotation_vectors(self):
+        """3D: the rotation vectors (angle at most pi) of the owned particles'
+        orientations at the last evaluation (the fields' rotation; None in 2D)."""
+        if self.space == 2 or self.orientation is None:
+            return None
+        return vectors(self.orientation.quat[:self.part.layout.n_owned])
+
     def reference_internal(self, u_vec, out_vec):
         """The live beams' forces in numpy (:class:`~solver.partitions.beam_bond.BeamBonds`;
         nothing breaks here)."""
         q, n = self.displacements(u_vec), self.n_held
         force, torque = self.beams.forces(*self._split(q))
         self._remember(q)
+        self._advance(q)
         out = np.column_stack([force, torque])[:n]
         if self.contact is not None:
             self._add_contact(u_vec, q, out)

@@ -35,13 +35,13 @@ breaks, the two touch again only when pressed closer than 2r, so a crack
 that opens transmits nothing and a crack that closes transmits compression.
 
 Rotating particles (``rotary``: beam models' rotations, u's last column
-(2D) or three (3D, rotation vectors), out's the torques): the contact point
+(2D) or three (3D, their rate the angular velocity), out's the torques): the contact point
 lies half way between the centres, l = |x_j - x_i| / 2 from each; the shear
 displacement also grows by -l (dtheta_i + dtheta_j) x n (2D: about z; a
 pair turning rigidly with its particles strains nothing), the tangential
 force's moment -l n x f_t turns both particles (the two balance the pair's
-forces' moment: angular momentum is kept; in 3D the moment enters the
-rotation vector's DOFs as it is, first order in the rotation), and in 2D
+forces' moment: angular momentum is kept; a moment in the space frame,
+as the angular velocity's equation takes it), and in 2D
 with ``rolling_friction`` mu_r a rolling spring k_r = k_t (r/2)^2 on the
 relative rotation theta_i - theta_j since the contact began turns them
 apart, capped at mu_r (r/2) f_n.
@@ -564,7 +564,7 @@ class Contact:
         return slipped + float(np.dot(power, self._share(i, j)))
 
 
-ROTATIONS = {2: 1, 3: 3}      # a rotating particle's rotations: about z, a rotation vector
+ROTATIONS = {2: 1, 3: 3}      # a rotating particle's rotations: about z; about x, y, z
 
 
 def _spin(w, d):

@@ -47,6 +47,18 @@ class Force:
     def restore_contacts(self, rows):
         """Take the contacts' shear histories of a checkpoint (none here)."""
 
+    def orientations(self):
+        """The 3D particles' orientations for a checkpoint (None: none kept)."""
+        return None
+
+    def restore_orientations(self, rows):
+        """Take the particles' orientations of a checkpoint (none here)."""
+
+    def rotation_vectors(self):
+        """The owned particles' rotation vectors when their rotation DOFs are
+        not (3D rotating particles; None: the DOFs are)."""
+        return None
+
     def damage(self):
         """Per-node damage for the fields (None: nothing breaks)."""
         return None

@@ -343,7 +343,8 @@ class LatticeSpec:
     bond: Literal["central", "beam"] = key(
         "central: bonds carry a normal force only (the packing's own nu); beam (kind "
         "random, geometry nonlinear): particles rotate (2D: one more DOF each, inertia "
-        "1/2 m r^2; 3D: a rotation vector, inertia 2/5 m r^2) and bonds are co-rotational "
+        "1/2 m r^2; 3D: three, inertia 2/5 m r^2, orientations kept as quaternions) and "
+        "bonds are co-rotational "
         "beams carrying normal and shear force, bending (and in 3D twisting) moments, "
         "calibrated to E and nu (nu from 0 to the central value), breaking in tension or "
         "shear with break_strain (docs/bonds.md); contact turns them (rolling resistance: 2D)",
