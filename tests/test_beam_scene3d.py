@@ -190,13 +190,13 @@ def test_a_fast_spin_restarts_to_the_same_state_with_its_orientations(model, tmp
 
 @pytest.mark.parametrize("sets,words", [
     (["model.lattice.contact.stiffness=1e6", "model.lattice.contact.friction=0.3",
-      "model.lattice.contact.friction_model=history",
+      "model.lattice.contact.friction_model=viscous",
       "model.lattice.contact.rolling_friction=0.1"], "model.lattice.contact.rolling_friction"),
     (["model.material.nu=0.3"], "central bonds' 0.24"),
 ])
 def test_bad_3d_beam_scenes_are_refused_in_one_line(tmp_path, sets, words):
-    """Rolling resistance between 3D rotating particles (not built: 2D only),
-    or a nu above the central bonds' (which 3D beams only lower): one line,
+    """Rolling resistance without shear springs (friction_model viscous), or
+    a nu above the central bonds' (which 3D beams only lower): one line,
     exit 2, no output."""
     scene = write_scene(tmp_path / "beam3d.yaml", beam_bar3d())
     line = refused(scene, sets, tmp_path)

@@ -231,17 +231,17 @@ def cluster3(n=5, seed=3):
     return q, w, np.column_stack([mass, mass, mass, inertia, inertia, inertia])
 
 
-@pytest.mark.parametrize("history", [True, False])
-def test_3d_compiled_loops_turn_spheres_as_the_numpy_path(history):
-    """3D (rotation vectors, model.lattice.bond: beam on a solid): a jittered
-    packing of 125 spinning spheres stepped with velocity Verlet: the
-    compiled loops' forces and torques, dashpot and friction forces and
-    torques, energy, work of sliding and touching pairs equal the numpy
-    path's (1e-12 of the largest) at every step through rebuilds; the
-    torques matter."""
+@pytest.mark.parametrize("history, rolling", [(True, 0.0), (False, 0.0), (True, 0.1)])
+def test_3d_compiled_loops_turn_spheres_as_the_numpy_path(history, rolling):
+    """3D (model.lattice.bond: beam on a solid): a jittered packing of 125
+    spinning spheres stepped with velocity Verlet: the compiled loops'
+    forces and torques (and rolling springs'), dashpot and friction forces
+    and torques, energy, work of sliding and rolling and touching pairs equal
+    the numpy path's (1e-12 of the largest) at every step through rebuilds;
+    the torques matter."""
     q, w, m = cluster3()
     kn, h = 2e5, 0.02 / np.sqrt(2e5)
-    args = dict(zeta=0.3, mu=0.2, zeta_t=0.3, history=history, h=h, rotary=3)
+    args = dict(zeta=0.3, mu=0.2, zeta_t=0.3, history=history, h=h, rotary=3, rolling=rolling)
     fast, ref = contact(kn, m[:, 0], **args), contact(kn, m[:, 0], compiled=False, **args)
     biggest = 0.0
     for _, _, got in verlet([fast, ref], q, w, m, h, 120):
@@ -256,6 +256,33 @@ def test_3d_compiled_loops_turn_spheres_as_the_numpy_path(history):
     assert biggest > 0.05, biggest
 
 
+def audit3(rolling=0.0, seed=5, steps=1500):
+    """A free cluster of 125 spinning spheres (shear springs, friction 0.3,
+    ``rolling`` mu_r) stepped by velocity Verlet: (the largest change of
+    its angular momentum m x cross v + I omega over its scale, the largest
+    energy audit error over the start's energy, the energy slid or rolled
+    away over it)."""
+    q, w, m = cluster3(seed=seed)
+    kn = 2e5
+    h = 0.05 / np.sqrt(kn)
+    c = contact(kn, m[:, 0], mu=0.3, h=h, rotary=3, rolling=rolling)
+
+    def angular(q, w):
+        return np.sum(m[:, :1] * np.cross(q[:, :3], w[:, :3]) + m[:, 3:] * w[:, 3:], axis=0)
+    start = contact(kn, m[:, 0], rotary=3)
+    start.forces(q, np.zeros(0, bool), np.zeros_like(q), len(q))
+    L0, E0 = angular(q, w), 0.5 * float(np.sum(m * w * w)) + start.energy
+    scale = float(np.sum(m[:, 0] * np.linalg.norm(q[:, :3], axis=1) *
+                         np.linalg.norm(w[:, :3], axis=1)))
+    slid = drift = change = 0.0
+    for q, w, got in verlet([c], q, w, m, h, steps, viscous=False):
+        _, _, _, e, s, _ = got[0]
+        slid += s
+        drift = max(drift, abs(0.5 * float(np.sum(m * w * w)) + e + slid - E0) / E0)
+        change = max(change, np.abs(angular(q, w) - L0).max() / scale)
+    return change, drift, slid / E0
+
+
 def test_3d_spheres_keep_angular_momentum_and_a_rigid_pair_strains_nothing():
     """A free cluster of 125 spinning spheres, shear springs sticking and
     sliding (14 % of the energy slides away): the angular momentum sum
@@ -267,28 +294,12 @@ def test_3d_spheres_keep_angular_momentum_and_a_rigid_pair_strains_nothing():
     spring stays below 1e-4 of the normal force (measured 5.7e-6: the roll
     is taken about the mid separation; about the new one, 2e-2); held
     unturned, they slide at mu f_n, their torques alike."""
-    q, w, m = cluster3(seed=5)
-    kn = 2e5
-    h = 0.05 / np.sqrt(kn)
-    c = contact(kn, m[:, 0], mu=0.3, h=h, rotary=3)
-
-    def angular(q, w):
-        return np.sum(m[:, :1] * np.cross(q[:, :3], w[:, :3]) + m[:, 3:] * w[:, 3:], axis=0)
-    start = contact(kn, m[:, 0], rotary=3)
-    start.forces(q, np.zeros(0, bool), np.zeros_like(q), len(q))
-    L0, E0 = angular(q, w), 0.5 * float(np.sum(m * w * w)) + start.energy
-    scale = float(np.sum(m[:, 0] * np.linalg.norm(q[:, :3], axis=1) *
-                         np.linalg.norm(w[:, :3], axis=1)))
-    slid = drift = change = 0.0
-    for q, w, got in verlet([c], q, w, m, h, 1500, viscous=False):
-        _, _, _, e, s, _ = got[0]
-        slid += s
-        drift = max(drift, abs(0.5 * float(np.sum(m * w * w)) + e + slid - E0) / E0)
-        change = max(change, np.abs(angular(q, w) - L0).max() / scale)
-    assert slid > 0.02 * E0, slid / E0
+    change, drift, slid = audit3()
+    assert slid > 0.02, slid
     assert change < 1e-12, change
     assert drift < 1e-2, drift
 
+    kn = 2e5
     d = 2 * R - 1e-3
     axis = np.array([0.3, 0.4, np.sqrt(0.75)])                 # unit, skew to the pair
     from solver.partitions.beam_bond3d import rotations
@@ -310,3 +321,42 @@ def test_3d_spheres_keep_angular_momentum_and_a_rigid_pair_strains_nothing():
             assert shear == pytest.approx(0.3 * normal, rel=1e-9)
             assert np.allclose(f[0, 3:], f[1, 3:]) and np.linalg.norm(f[1, 3:]) == \
                 pytest.approx(0.5 * d * shear, rel=1e-9)
+
+
+def test_a_3d_rolling_spring_rolls_across_the_normal_and_lets_twisting_go():
+    """Two pressed spheres along a skew normal n, turned in opposite senses
+    about an axis t across it (theta_0 = a t, theta_1 = -a t: one rolls on
+    the other): the rolling spring's moment is k_r phi t on 1 and minus that
+    on 0 (phi = 2a, k_r = k_t R*^2) up to mu_r R* f_n, then that cap, the
+    shear spring unloaded; turned back, it unloads along k_r.  Twisted about
+    n instead, nothing resists.  A free cluster of 125 spinning spheres with
+    rolling resistance keeps its angular momentum (1e-12) and closes its
+    audit (1e-2), the rolling springs' dissipation counted."""
+    kn, mu_r, overlap = 1e6, 0.1, 1e-3
+    n = np.array([0.3, 0.4, np.sqrt(0.75)])
+    t = np.cross(n, [1.0, 0.0, 0.0])
+    t /= np.linalg.norm(t)
+    kr = 2.0 / 7.0 * kn * (R / 2) ** 2
+    cap = mu_r * (R / 2) * kn * overlap
+    a_cap = cap / kr / 2
+    for axis, resists in ((t, True), (n, False)):
+        c = contact(kn, np.ones(2), mu=0.3, rolling=mu_r, rotary=3)
+        up, down = np.linspace(0.0, 3 * a_cap, 151), np.linspace(3 * a_cap, 2 * a_cap, 51)[1:]
+        want = np.concatenate([np.minimum(2 * kr * up, cap), cap - 2 * kr * (3 * a_cap - down)])
+        lost = 0.0
+        for a, moment in zip(np.concatenate([up, down]), want):
+            out = np.zeros((2, 6))
+            q = np.array([[0.0, 0.0, 0.0, *(a * axis)], [*((2 * R - overlap) * n), *(-a * axis)]])
+            c.forces(q, np.zeros(0, bool), out, 2)
+            lost += c._slipped
+            shear = out[1, :3] - (out[1, :3] @ n) * n
+            assert np.abs(shear).max() < 1e-12 * kn * overlap
+            assert np.abs(out[0, 3:] + out[1, 3:]).max() < 1e-12 * cap
+            expect = moment * axis if resists else np.zeros(3)
+            assert np.abs(out[1, 3:] - expect).max() < 1e-9 * cap + 1e-12 * cap, (a, out[1, 3:])
+        if resists:
+            assert lost == pytest.approx(cap * 2 * (2 * a_cap), rel=2e-2)    # rolled 2 x 2 a_cap
+        else:
+            assert lost == 0.0
+    change, drift, slid = audit3(rolling=0.1)
+    assert change < 1e-12 and drift < 1e-2 and slid > 0.02, (change, drift, slid)

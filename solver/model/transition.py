@@ -302,9 +302,6 @@ def _random(spec, pts, band, region, lo, hi):
                          f"{ids.size} particles unbonded (none of their Delaunay neighbours "
                          "within the gap); give a larger gap")
     beam = lat.bond == "beam"
-    if beam and dim == 3 and lat.contact is not None and lat.contact.rolling_friction:
-        raise SceneError("model.lattice.contact.rolling_friction: rolling resistance is 2D; "
-                         "3D rotating particles touch with shear springs and friction only")
     psi = eta = 0.0
     start = time.perf_counter()
     try:

@@ -41,10 +41,12 @@ displacement also grows by -l (dtheta_i + dtheta_j) x n (2D: about z; a
 pair turning rigidly with its particles strains nothing), the tangential
 force's moment -l n x f_t turns both particles (the two balance the pair's
 forces' moment: angular momentum is kept; a moment in the space frame,
-as the angular velocity's equation takes it), and in 2D
-with ``rolling_friction`` mu_r a rolling spring k_r = k_t (r/2)^2 on the
+as the angular velocity's equation takes it), and with
+``rolling_friction`` mu_r a rolling spring k_r = k_t (r/2)^2 on the
 relative rotation theta_i - theta_j since the contact began turns them
-apart, capped at mu_r (r/2) f_n.
+apart, capped at mu_r (r/2) f_n (3D: on its tangential part, turned with the
+contact as the shear spring is and capped in length; twisting about n is
+free).
 
 Distances are taken as (X_j - X_i) + (u_j - u_i) from the rest positions X
 and the displacements u, as the bonds take theirs (see
@@ -149,8 +151,6 @@ class Contact:
         if self.rolling and not (self.turns and self.history):
             raise ValueError("contact: rolling resistance needs rotating particles and shear "
                              "springs (friction_model history)")
-        if self.rolling and self.turns == 3:
-            raise ValueError("contact: rolling resistance is 2D")
         self._code = KERNEL_LAWS.get(self.law.name) if compiled and dim in (2, 3, None) else None
         self.compiled = self._code is not None
         if self.compiled:      # lazy: numba (about 1 s to import) loads only with contact
@@ -350,12 +350,14 @@ class Contact:
             # (3D: about the mid separation, second order in the step; in 2D the
             # difference is along n)
             roll = -0.5 * _spin(step[:, dim:dim + T], d if T == 1 else d - 0.5 * step[:, :dim])
-            phi = xi[:, dim] + step[:, dim + T] if self.rolling else None
+            if self.rolling and T == 1:
+                phi = xi[:, dim] + step[:, dim + T]
+            elif self.rolling:         # 3D: turned into the tangent plane, plus the
+                phi = _tangent(xi[:, dim:], unit)  # tangential part of the relative turn
+                turn = step[:, dim + T:]
+                phi += turn - np.einsum("pc,pc->p", turn, unit)[:, None] * unit
             step, xi = step[:, :dim] + roll, xi[:, :dim]
-        length = np.linalg.norm(xi, axis=1)
-        xi -= np.einsum("pc,pc->p", xi, unit)[:, None] * unit          # into the tangent plane
-        turned = np.linalg.norm(xi, axis=1)
-        xi *= np.divide(length, turned, out=np.zeros_like(length), where=turned > 0)[:, None]
+        xi = _tangent(xi, unit)
         xi += step - np.einsum("pc,pc->p", step, unit)[:, None] * unit
         kt = self.ratio * k
         length = np.linalg.norm(xi, axis=1)
@@ -369,10 +371,18 @@ class Contact:
         if phi is not None:            # the rolling spring k_r = k_t R*^2, at most mu_r R* f_n
             kr, arm = 0.25 * self.radius ** 2 * kt, 0.5 * self.radius
             most = self.rolling * arm * fn / np.where(kr > 0, kr, 1.0)
-            kept = np.clip(phi, -most, most)
-            lost = lost + 0.5 * kr * (phi ** 2 - kept ** 2)
-            held = held + 0.5 * kr * kept ** 2
-            moment = kr * kept
+            if T == 1:
+                kept = np.clip(phi, -most, most)
+                size2, kept2 = phi ** 2, kept ** 2
+                moment = kr * kept
+            else:                      # 3D: its length capped, its direction kept
+                size = np.linalg.norm(phi, axis=1)
+                kept = phi * np.where(size > most, most / np.where(size > 0, size, 1.0),
+                                      1.0)[:, None]
+                size2, kept2 = size ** 2, np.minimum(size, most) ** 2
+                moment = kr[:, None] * kept
+            lost = lost + 0.5 * kr * (size2 - kept2)
+            held = held + 0.5 * kr * kept2
             xi = np.column_stack([xi, kept])
         elif turns is not None:        # (no rolling spring: its columns stay zero)
             xi = np.column_stack([xi, np.zeros((len(at), T))])
@@ -478,9 +488,13 @@ class Contact:
             if self.turns:
                 self._torques(out, rows, i, j, d, spring)
             if self.rolling:
+                moment = moment.reshape(len(i), -1)
+                first = out.shape[1] - moment.shape[1]
                 for end, sign in ((i, -1.0), (j, 1.0)):      # the rolling springs' moments
                     keep = end < rows
-                    out[:, -1] += sign * np.bincount(end[keep], moment[keep], minlength=rows)
+                    for c in range(moment.shape[1]):
+                        out[:, first + c] += sign * np.bincount(end[keep], moment[keep, c],
+                                                                minlength=rows)
         self.energy = float(np.dot(energy, share))
         self._last = (i, j, unit, k, f, shear, d)
         _scatter(out, rows, i, j, force)
@@ -565,6 +579,15 @@ class Contact:
 
 
 ROTATIONS = {2: 1, 3: 3}      # a rotating particle's rotations: about z; about x, y, z
+
+
+def _tangent(x, unit):
+    """Vectors ``x`` [n, dim] turned into the planes normal to ``unit`` [n, dim],
+    their lengths kept (a spring that turns with its contact)."""
+    length = np.linalg.norm(x, axis=1)
+    x = x - np.einsum("pc,pc->p", x, unit)[:, None] * unit
+    turned = np.linalg.norm(x, axis=1)
+    return x * np.divide(length, turned, out=np.zeros_like(length), where=turned > 0)[:, None]
 
 
 def _spin(w, d):

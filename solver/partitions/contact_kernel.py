@@ -59,11 +59,12 @@ def loops(dim: int):
         ones their difference; the contact point, half way between the
         centres, rolls by -l (dtheta_i + dtheta_j) x n (l = r / 2) and the
         shear force's moment -l n x f acts on both particles.  With
-        ``rolling`` mu_r > 0 (2D, and ``history``) a rolling spring
-        k_r = k_t R*^2 (R* = radius / 2) on the relative rotation phi (column
-        ``dim`` of ``xi``) since the contact began turns i by -k_r phi and j
-        by k_r phi, at most mu_r R* f_n (beyond it rolls, the energy the cap
-        takes dissipated)."""
+        ``rolling`` mu_r > 0 (and ``history``) a rolling spring k_r = k_t R*^2
+        (R* = radius / 2) on the relative rotation phi (columns ``dim`` on of
+        ``xi``) since the contact began (3D: its tangential part, turned with
+        the contact) turns i by -k_r phi and j by k_r phi, |k_r phi| at most
+        mu_r R* f_n (beyond it rolls, the energy the cap takes
+        dissipated)."""
         with_rest = rest.shape[0] > 0
         with_bonds = bond.shape[0] > 0
         energy = 0.0
@@ -72,6 +73,7 @@ def loops(dim: int):
         step = np.zeros(dim)
         width = dim + rotary                       # forces (and the torques)
         turned = np.zeros(3)                       # the pair's rotations since the last call
+        twist3 = np.zeros(3)                       # ... and relative rotation
         roll3 = np.zeros(3)                        # (3D) the contact point's roll
         run = np.zeros(width)                      # the sum on row pi[p] over its run of pairs
         cur = -1
@@ -115,14 +117,12 @@ def loops(dim: int):
                 x = step[c]
                 step[c] = x - d[p, c]
                 d[p, c] = x
-            twisted = 0.0
             for c in range(rotary):            # the pair's rotations since the last call
                 spin = u[a, dim + c] + u[b, dim + c]
                 turned[c] = spin - d[p, dim + c]
                 d[p, dim + c] = spin
                 twist = u[a, dim + c] - u[b, dim + c]
-                if c == 0:
-                    twisted = twist - d[p, dim + rotary]
+                twist3[c] = twist - d[p, dim + rotary + c]
                 d[p, dim + rotary + c] = twist
             inv = 1.0 / r
             f, kp, e = _law(law, stiff, overlap)
@@ -162,8 +162,24 @@ def loops(dim: int):
                             xi[p, c] += roll3[c] - rn * d[p, c]
                     for c in range(dim):
                         length2 += xi[p, c] * xi[p, c]
-                    if rolling > 0.0:
-                        xi[p, dim] += twisted
+                    if rolling > 0.0 and rotary == 1:
+                        xi[p, dim] += twist3[0]
+                    elif rolling > 0.0:        # 3D: turned into the tangent plane (its
+                        proj = 0.0             # length kept), plus the relative turn's
+                        held = 0.0             # tangential part
+                        step_n = 0.0
+                        for c in range(3):
+                            proj += xi[p, dim + c] * d[p, c]
+                            held += xi[p, dim + c] * xi[p, dim + c]
+                            step_n += twist3[c] * d[p, c]
+                        proj *= inv
+                        step_n *= inv
+                        left = held - proj * proj
+                        scale = np.sqrt(held / left) if left > 0.0 else 0.0
+                        for c in range(3):
+                            n = d[p, c] * inv
+                            xi[p, dim + c] = ((xi[p, dim + c] - proj * n) * scale +
+                                              (twist3[c] - step_n * n))
                 else:
                     for c in range(xi.shape[1]):
                         xi[p, c] = 0.0
@@ -178,18 +194,22 @@ def loops(dim: int):
                 e += 0.5 * kt * length * length
                 if rolling > 0.0:              # the rolling spring, capped at mu_r R* f_n
                     kr = 0.25 * radius * radius * kt
-                    phi = xi[p, dim]
                     most = rolling * 0.5 * radius * f / kr
-                    if abs(phi) > most:
-                        kept = most if phi > 0.0 else -most
-                        slipped += share * 0.5 * kr * (phi * phi - most * most)
-                        phi = kept
-                        xi[p, dim] = phi
-                    e += 0.5 * kr * phi * phi
-                    moment = kr * phi          # -moment on i, +moment on j
-                    if b < rows:
-                        out[b, dim] += moment
-                    run[dim] -= moment
+                    size2 = 0.0
+                    for c in range(rotary):
+                        size2 += xi[p, dim + c] * xi[p, dim + c]
+                    if size2 > most * most:    # (3D: its direction kept)
+                        slipped += share * 0.5 * kr * (size2 - most * most)
+                        cut = most / np.sqrt(size2)
+                        for c in range(rotary):
+                            xi[p, dim + c] *= cut
+                        size2 = most * most
+                    e += 0.5 * kr * size2
+                    for c in range(rotary):
+                        moment = kr * xi[p, dim + c]   # -moment on i, +moment on j
+                        if b < rows:
+                            out[b, dim + c] += moment
+                        run[dim + c] -= moment
                 live[p] = True
             energy += share * e
             fr = f * inv

@@ -254,8 +254,9 @@ class ContactSpec:
     rolling_friction: float | None = key(
         "rolling resistance mu_r of rotating particles (bond: beam, friction_model history): "
         "a rolling spring k_r = k_t R*^2 (R* = radius / 2) on the pair's relative rotation "
-        "since the contact began, its moment at most mu_r R* f_n (beyond it the pair rolls, "
-        "the energy the cap takes dissipated); default none", None, positive=True)
+        "since the contact began (3D: its part across the contact normal; twisting is free), "
+        "its moment at most mu_r R* f_n (beyond it the pair rolls, the energy the cap takes "
+        "dissipated); default none", None, positive=True)
     radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
                                "neighbours just touch at rest)", None, positive=True)
     skin: float | None = key("neighbour-list skin [m]: the pair search is rebuilt when a particle "
@@ -347,7 +348,7 @@ class LatticeSpec:
         "bonds are co-rotational "
         "beams carrying normal and shear force, bending (and in 3D twisting) moments, "
         "calibrated to E and nu (nu from 0 to the central value), breaking in tension or "
-        "shear with break_strain (docs/bonds.md); contact turns them (rolling resistance: 2D)",
+        "shear with break_strain (docs/bonds.md); contact turns them",
         "central")
 
     @property
