@@ -50,9 +50,11 @@ def collected(path) -> int:
     return sum(1 for line in proc.stdout.splitlines() if "::" in line)
 
 
-@pytest.mark.parametrize("n", [2, 4])
+@pytest.mark.parametrize("n", [2, 3])
 def test_in_process_mpi_suite(n, tmp_path):
-    """tests/mpi/mpi_ranks.py under mpiexec -n N (4 oversubscribes this machine):
+    """tests/mpi/mpi_ranks.py under mpiexec -n N (3 oversubscribes this machine;
+    an odd count splits unevenly; 4 took 52 s of the suite against 3's 22 s,
+    and the transition zone, levels and contact halo still run on 4):
     every test passes on every rank, none is skipped."""
     path = "tests/mpi/mpi_ranks.py"
     want = collected(path)

@@ -5,10 +5,13 @@ Between system steps a run is determined by
 * the owned (u, v, a) of every partition, keyed by global node id (so a run
   can restart on another rank count: external copies are refreshed from their
   owners by one exchange, which is what the last system step ended with);
-* per partition: steps done, external work, damping dissipation and the last load values of every
-  load function (the work increment's f_n); the broken bonds (time, midpoint,
-  strain, particles) of breakable lattices; the contacts' shear histories
-  (friction_model: history: particle ids, xi, last separation);
+* per partition: steps done, external work, damping dissipation, the energy
+  broken bonds released and the last load values of every load function (the
+  work increment's f_n); the broken bonds (time, midpoint, strain, particles)
+  of breakable lattices; the contacts' shear histories (friction_model:
+  history: particle ids, xi, last separation); the orientations of 3D
+  rotating particles (id, quaternion, rotation DOFs at it:
+  :class:`solver.partitions.orientation.Orientation`);
 * the energy guard: its samples so far, initial energy, largest |work|;
 * the probe histories so far and the number of system steps done.
 

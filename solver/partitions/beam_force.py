@@ -34,7 +34,7 @@ from solver.model.calibration import torsion
 from solver.partitions.beam_bond import BeamBonds
 from solver.partitions.beam_bond3d import BeamBonds3D
 from solver.partitions.bonds import BondForce
-from solver.partitions.orientation import Orientation, vectors
+from solver.partitions.orientation import Orientation, matrices, vectors
 
 
 class BeamBondForce(BondForce):
@@ -58,10 +58,10 @@ class BeamBondForce(BondForce):
             # lazy: as above
             from solver.partitions.beam_bond3d_kernel import beam_forces3d
             self.beams = BeamBonds3D(self.i, self.j, self.dX, self.k, k_b, torsion(k_b))
-            frames = np.empty((self._n_bonded, 3, 3))   # (held and bond ghosts: no halo)
+            self._R = np.empty((self._n_bonded, 3, 3))   # (held and bond ghosts: no halo)
 
             def beam_forces(bonds, q, *args):
-                return beam_forces3d(bonds, q, *args, orientation=self._orientation(q), R=frames)
+                return beam_forces3d(bonds, q, *args, orientation=self._orientation(q), R=self._R)
         self._beam_forces = beam_forces
         self.orientation = None         # 3D: the particles' Orientation (at the first evaluation)
         self._pending = ()              # 3D: a checkpoint's orientations (resume takes them)
@@ -139,11 +139,15 @@ class BeamBondForce(BondForce):
         last one's), particles.  The energy counts once: on the piece owning
         its first particle."""
         sub = self.beams.subset(which)
-        fibre, slip, t_limit, s_limit = sub.failure(*self._split(q))
+        if self.space == 2:
+            now, before = self._split(q), lambda v: sub.energies(*self._split(v))
+        else:       # the loop's frames at q; at the last evaluation's q (_released's v), the
+            now = (q[:, :3], self._R)          # orientations not yet kept
+            before = lambda v: sub.energies(v[:, :3], matrices(self.orientation.quat))  # noqa: E731
+        fibre, slip, t_limit, s_limit = sub.failure(*now)
         shear = mode == 2
         strain, limit = np.where(shear, slip, fibre), np.where(shear, s_limit, t_limit)
-        energy = self._released(sub.energies(*self._split(q)),
-                                lambda v: sub.energies(*self._split(v)))
+        energy = self._released(sub.energies(*now), before)
         i, j = self.i[which], self.j[which]
         s = self.space
         mid = 0.5 * ((self.X[i] + self.X[j]) + (q[i, :s] + q[j, :s]))

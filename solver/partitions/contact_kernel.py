@@ -198,7 +198,11 @@ def loops(dim: int):
                     size2 = 0.0
                     for c in range(rotary):
                         size2 += xi[p, dim + c] * xi[p, dim + c]
-                    if size2 > most * most:    # (3D: its direction kept)
+                    if rotary == 1 and abs(xi[p, dim]) > most:
+                        slipped += share * 0.5 * kr * (size2 - most * most)
+                        xi[p, dim] = most if xi[p, dim] > 0.0 else -most
+                        size2 = most * most
+                    elif rotary == 3 and size2 > most * most:     # its direction kept
                         slipped += share * 0.5 * kr * (size2 - most * most)
                         cut = most / np.sqrt(size2)
                         for c in range(rotary):
