@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import MutableMapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
@@ -142,7 +142,9 @@ class ContactSettings:
     normal tangent stiffness with Coulomb sliding, kept per contact
     (Cundall-Strack) instead of viscous friction alone; ``rolling_friction``
     mu_r: with rotating particles and shear springs, a rolling spring
-    k_r = k_t (radius / 2)^2 capped at mu_r (radius / 2) f_n (0: none)."""
+    k_r = k_t (radius / 2)^2 capped at mu_r (radius / 2) f_n (0: none);
+    ``radii``: each model node's radius (a random packing's spread radii,
+    ``radius`` then their largest), or None: ``radius`` for all."""
 
     law: ContactLaw
     radius: float
@@ -153,6 +155,7 @@ class ContactSettings:
     history: bool = False
     tangential_stiffness: float = 2.0 / 7.0
     rolling_friction: float = 0.0
+    radii: object = field(default=None, compare=False, repr=False)
 
 
 @BOND_GEOMETRIES.register

@@ -17,14 +17,14 @@ R = 0.5
 
 
 def contact(kn, mass, zeta=0.0, mu=0.3, zeta_t=0.0, history=True, compiled=True, h=1e-3,
-            rotary=True, rolling=0.0):
+            rotary=True, rolling=0.0, radii=None):
     from solver.laws import CONTACT_LAWS, ContactSettings
     from solver.partitions.contact import Contact
-    settings = ContactSettings(CONTACT_LAWS["linear"](kn), R, 0.1, zeta, mu, zeta_t,
-                               history=history, rolling_friction=rolling)
+    settings = ContactSettings(CONTACT_LAWS["linear"](kn), R if radii is None else radii.max(),
+                               0.1, zeta, mu, zeta_t, history=history, rolling_friction=rolling)
     none = np.zeros(0, np.int64)
     return Contact(np.arange(len(mass)), settings, none, none, mass, dt=h, compiled=compiled,
-                   rotary=rotary)
+                   rotary=rotary, radii=radii)
 
 
 def cluster(n=10, seed=3):
@@ -231,17 +231,21 @@ def cluster3(n=5, seed=3):
     return q, w, np.column_stack([mass, mass, mass, inertia, inertia, inertia])
 
 
-@pytest.mark.parametrize("history, rolling", [(True, 0.0), (False, 0.0), (True, 0.1)])
-def test_3d_compiled_loops_turn_spheres_as_the_numpy_path(history, rolling):
+@pytest.mark.parametrize("history, rolling, spread", [(True, 0.0, 0.0), (False, 0.0, 0.0),
+                                                     (True, 0.1, 0.0), (True, 0.1, 0.2)])
+def test_3d_compiled_loops_turn_spheres_as_the_numpy_path(history, rolling, spread):
     """3D (model.lattice.bond: beam on a solid): a jittered packing of 125
     spinning spheres stepped with velocity Verlet: the compiled loops'
     forces and torques (and rolling springs'), dashpot and friction forces
     and torques, energy, work of sliding and rolling and touching pairs equal
-    the numpy path's (1e-12 of the largest) at every step through rebuilds;
-    the torques matter."""
+    the numpy path's (1e-12 of the largest) at every step through rebuilds,
+    with one radius or radii spread by +-20 %; the torques matter."""
     q, w, m = cluster3()
     kn, h = 2e5, 0.02 / np.sqrt(2e5)
-    args = dict(zeta=0.3, mu=0.2, zeta_t=0.3, history=history, h=h, rotary=3, rolling=rolling)
+    radii = R * np.random.default_rng(9).uniform(1 - spread, 1 + spread, len(q)) \
+        if spread else None
+    args = dict(zeta=0.3, mu=0.2, zeta_t=0.3, history=history, h=h, rotary=3, rolling=rolling,
+                radii=radii)
     fast, ref = contact(kn, m[:, 0], **args), contact(kn, m[:, 0], compiled=False, **args)
     biggest = 0.0
     for _, _, got in verlet([fast, ref], q, w, m, h, 120):

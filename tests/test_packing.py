@@ -264,3 +264,41 @@ def test_the_volumetric_calibration_keeps_its_bracket(monkeypatch):
     assert abs(m.nu - goal) < 1e-4 and abs(eta / 900.0 - 1) < 1e-3
     with pytest.raises(ValueError, match=r"reach nu 0\.48\d* at most in plane_stress"):
         calibration.calibrate_bulk(1.0, 0.8, "plane_stress", 0.0, 1.0, 0)
+
+
+def test_spread_radii_touch_at_their_own_sum_and_a_bond_breaking_at_rest_injects_nothing(
+        tmp_path):
+    """Contact with a random packing's spread radii: two spheres of radii 0.3
+    and 0.5 touch closer than 0.8 (the compiled loop and the numpy path
+    alike; 0.81 apart nothing).  The wave bar's random core with spread 0.2,
+    contact and breaking bonds: every pair is at least r_i + r_j apart at
+    rest, so bonds that break near rest leave their pairs untouched and the
+    audit closes to 1e-3 (measured 1.9e-4; with one radius for all, half
+    the spacing, a broken pair closer than that was pushed apart by the
+    overlap and the energy grew to 14x the work: the guard stopped the run)."""
+    from conftest import raw_scene, run_scene
+    from solver.laws import CONTACT_LAWS, ContactSettings
+    from solver.partitions.contact import Contact
+    settings = ContactSettings(CONTACT_LAWS["linear"](100.0), 0.5, 0.1)
+    none = np.zeros(0, np.int64)
+    for gap, want in ((0.75, 100.0 * 0.05), (0.81, 0.0)):
+        for compiled in (True, False):
+            c = Contact(np.arange(2), settings, none, none, np.ones(2), compiled=compiled,
+                        radii=np.array([0.3, 0.5]))
+            out = np.zeros((2, 3))
+            c.forces(np.array([[0.0, 0.0, 0.0], [gap, 0.0, 0.0]]), np.zeros(0, bool), out, 2)
+            assert out[1, 0] == pytest.approx(want, rel=1e-12, abs=1e-15), (gap, compiled)
+    raw = raw_scene("wave_bar_transition")
+    raw["model"]["lattice"].update(kind="random", geometry="nonlinear", break_strain=1e-4,
+                                   radius_spread=0.2,
+                                   contact={"stiffness": 1.68e7, "damping_ratio": 0.5})
+    raw["time"]["dt"] = 7e-9
+    raw["output"] = {"energy_every": 10}
+    result = run_scene(raw, tmp_path)
+    e = result.energy
+    W = np.abs(e["external_work"]).max()
+    released = result.partitions["dem"]["released_energy"]
+    assert result.partitions["dem"]["bonds_broken"] > 50
+    audit = abs(e["kinetic"][-1] + e["strain"][-1] + e["dissipated"][-1] + released -
+                e["external_work"][-1]) / W
+    assert audit < 1e-3, audit

@@ -383,20 +383,30 @@ def shear_of(lat):
     return ratio, float(np.tan(np.radians(lat.friction_angle or 0.0)))
 
 
-def contact_of(lat):
+def contact_of(lat, zone=None, n_nodes=0):
     """The :class:`solver.laws.ContactSettings` of ``model.lattice.contact``
-    (its law object built from the registry), defaults filled, or None."""
+    (its law object built from the registry), defaults filled, or None.  A
+    random packing with a radius spread (``zone``, a transition band of
+    ``n_nodes`` model nodes) and no ``radius`` given: every core particle
+    touches at its own radius (``radii``), the largest standing for all
+    where one radius is asked (the search's reach, the step bound)."""
     c = lat.contact
     if c is None:
         return None
     radius = c.radius if c.radius is not None else 0.5 * lat.spacing
+    radii = None
+    if c.radius is None and zone is not None and zone.radii is not None and \
+            np.ptp(zone.radii) > 0:
+        radii = np.full(n_nodes, radius)
+        radii[zone.core_ids] = zone.radii
+        radius = float(zone.radii.max())
     return ContactSettings(law=CONTACT_LAWS[c.law](c.stiffness), radius=radius,
                            skin=c.skin if c.skin is not None else 0.3 * radius,
                            damping_ratio=c.damping_ratio, friction=c.friction,
                            tangential_damping_ratio=c.tangential_damping_ratio,
                            history=c.friction_model == "history",
                            tangential_stiffness=c.tangential_stiffness,
-                           rolling_friction=c.rolling_friction or 0.0)
+                           rolling_friction=c.rolling_friction or 0.0, radii=radii)
 
 
 def _dilatation(zone, n_nodes):
@@ -447,5 +457,5 @@ def _with_zone(scene, mesh, zone, cells, mass):
                                            weibull=weibull_of(lat), bending=zone.bending,
                                            shear=shear_of(lat),
                                            dilatation=_dilatation(zone, n_nodes)),
-                           contact=contact_of(lat), zone=zone)
+                           contact=contact_of(lat, zone, n_nodes), zone=zone)
 

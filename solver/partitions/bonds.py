@@ -147,15 +147,20 @@ class BondForce(Force):
         mass = node_mass[self.ids]
         split = part.comm.size > 1
         self._bonded_contact = (particles, mass)
+        self.contact_settings = settings
         self.contact = Contact(particles, settings, self.i, self.j, mass, lay.n_owned,
                                rest=self.X, decides=not split, ids=self.ids, dt=part.dt,
-                               rotary=self.dim - self.space)
+                               rotary=self.dim - self.space, radii=self._radii(settings))
         if split:
             mine = particles[particles < held.size]
             self.halo = ContactHalo(part.comm, self.contact.reach, mine[mine < lay.n_owned],
                                     mine, held[mine], lay.start + mine, self.X[mine], mass[mine],
                                     self.ids)
             self._rehalo(part.u)
+
+    def _radii(self, settings):
+        """Every local position's contact radius (None: one for all)."""
+        return None if settings.radii is None else settings.radii[self.ids]
 
     def _scatter(self, numbers):
         """The ghost scatter of the particles of partition numbers ``numbers``
@@ -185,7 +190,8 @@ class BondForce(Force):
         self._u = np.zeros((len(self.X), self.dim))
         particles, bonded_mass = self._bonded_contact
         self.contact.renew(np.concatenate([particles, n0 + np.arange(ids.size)]),
-                           np.concatenate([bonded_mass, mass]), self.X, self.ids)
+                           np.concatenate([bonded_mass, mass]), self.X, self.ids,
+                           self._radii(self.contact_settings))
         u = self.displacements(u_vec)
         self.contact.build(u)
         return u

@@ -2,7 +2,9 @@
 
 Particles are spheres of radius r: two that are closer than 2r and share no
 live bond push each other apart along the line of centres n, with the
-overlap d = 2r - |x_j - x_i|, with the force, tangent and energy of the
+overlap d = 2r - |x_j - x_i| (``radii``, a random packing's spread radii:
+r_i + r_j - |x_j - x_i|, so that no pair touches at rest and a bond that
+breaks at rest leaves its pair untouched), with the force, tangent and energy of the
 settings' law (:data:`solver.laws.CONTACT_LAWS`):
 - law linear: f = k_n d (energy 1/2 k_n d^2);
 - law hertz:  f = k_h d^1.5 (energy 2/5 k_h d^2.5), tangent 1.5 k_h d^0.5;
@@ -117,11 +119,13 @@ class Contact:
     pairs, the reference they are tested against)."""
 
     def __init__(self, nodes, settings, bonded_i, bonded_j, mass=None, owned=None, rest=None,
-                 decides=True, ids=None, dt=None, compiled=True, rotary=False):
+                 decides=True, ids=None, dt=None, compiled=True, rotary=False, radii=None):
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self._ordered = bool(np.all(np.diff(self.nodes) > 0))    # pairs keep their order
         self.law = settings.law
-        self.radius, self.skin = settings.radius, settings.skin
+        self.radius, self.skin = settings.radius, settings.skin     # (radii: the largest)
+        self.radii = None if radii is None else np.asarray(radii, dtype=float)
+        self._uniform = None               # the compiled loops' radii without ``radii``
         self.zeta, self.mu = settings.damping_ratio, settings.friction
         self.zeta_t = settings.tangential_damping_ratio
         self.history = settings.history
@@ -165,8 +169,31 @@ class Contact:
 
     @property
     def reach(self) -> float:
-        """2r + skin: the distance within which a pair is a candidate."""
+        """2r + skin: the distance within which a pair is a candidate (r the
+        largest radius)."""
         return 2 * self.radius + self.skin
+
+    def _touch_at(self, i, j):
+        """The distance r_i + r_j below which pairs (i, j) touch."""
+        if self.radii is None:
+            return 2 * self.radius
+        return self.radii[i] + self.radii[j]
+
+    def _arm(self, i, j):
+        """The pairs' effective radius R* = r_i r_j / (r_i + r_j) (r / 2 for equal
+        radii): the rolling spring's k_r = k_t R*^2 and cap mu_r R* f_n."""
+        if self.radii is None:
+            return 0.5 * self.radius
+        ri, rj = self.radii[i], self.radii[j]
+        return ri * rj / (ri + rj)
+
+    def _radii_of(self, n):
+        """Every local position's radius for the compiled loops (n positions)."""
+        if self.radii is not None:
+            return self.radii
+        if self._uniform is None or len(self._uniform) != n:
+            self._uniform = np.full(n, float(self.radius))
+        return self._uniform
 
     def _moved(self, u):
         """The translations of ``u`` (without the rotations of rotating particles)."""
@@ -190,16 +217,19 @@ class Contact:
             moved = np.max(np.einsum("pc,pc->p", step, step), initial=0.0)
         return bool(moved > (0.5 * self.skin) ** 2)
 
-    def renew(self, nodes, mass, rest, ids=None):
+    def renew(self, nodes, mass, rest, ids=None, radii=None):
         """New contact particles ``nodes`` (local indices) with the masses, rest
-        positions and global ids of every local position (a piece's halo
-        changed); the search is then built by :meth:`build`, which takes the
-        shear histories over by global ids."""
+        positions, global ids and radii (with ``radii`` at construction) of
+        every local position (a piece's halo changed); the search is then
+        built by :meth:`build`, which takes the shear histories over by
+        global ids."""
         if self.history:
             self._pending = self.table()
         self.nodes = np.asarray(nodes, dtype=np.int64)
         self._ordered = bool(np.all(np.diff(self.nodes) > 0))
         self.mass, self.rest = mass, rest
+        if radii is not None:
+            self.radii = np.asarray(radii, dtype=float)
         if ids is not None:
             self.ids = ids
         self._u_built = None
@@ -273,7 +303,7 @@ class Contact:
             self._last = None
             if at.size:
                 d, dist = e["d"][at, :self._dim], e["dist"][at]
-                f, k, _ = self.law.evaluate(2 * self.radius - dist)
+                f, k, _ = self.law.evaluate(self._touch_at(e["pi"][at], e["pj"][at]) - dist)
                 shear = ((-self.ratio * k)[:, None] * e["xi"][at, :self._dim], e["sticks"][at]) \
                     if self.history else None
                 self._last = (e["pi"][at], e["pj"][at], d / dist[:, None], k, f, shear, d)
@@ -369,7 +399,8 @@ class Contact:
         held = 0.5 * kt * np.einsum("pc,pc->p", xi, xi)
         moment = None
         if phi is not None:            # the rolling spring k_r = k_t R*^2, at most mu_r R* f_n
-            kr, arm = 0.25 * self.radius ** 2 * kt, 0.5 * self.radius
+            arm = self._arm(self._mine[0][at], self._mine[1][at])
+            kr = arm ** 2 * kt
             most = self.rolling * arm * fn / np.where(kr > 0, kr, 1.0)
             if T == 1:
                 kept = np.clip(phi, -most, most)
@@ -400,10 +431,11 @@ class Contact:
         gone = np.flatnonzero(gone)
         if not gone.size:
             return 0.0
-        overlap = 2 * self.radius - np.linalg.norm(sep_all[gone, :self._dim], axis=1)
+        i, j = self._mine[0][gone], self._mine[1][gone]
+        overlap = self._touch_at(i, j) - np.linalg.norm(sep_all[gone, :self._dim], axis=1)
         _, k, _ = self.law.evaluate(np.maximum(overlap, 0.0))
         xi = xi_all[gone].copy()
-        xi[:, self._dim:] *= 0.5 * self.radius     # the rolling spring: k_r = k_t R*^2
+        xi[:, self._dim:] *= np.reshape(self._arm(i, j), (-1, 1))   # rolling: k_r = k_t R*^2
         held = 0.5 * self.ratio * k * np.einsum("pc,pc->p", xi, xi)
         return float(np.dot(held, self._share(self._mine[0][gone], self._mine[1][gone])))
 
@@ -427,7 +459,7 @@ class Contact:
         if rest is not None:
             d += rest
         dist = np.linalg.norm(d, axis=1)
-        overlap = 2 * self.radius - dist
+        overlap = self._touch_at(i, j) - dist
         bonded = np.zeros(len(i), bool)
         bonded[with_bond] = alive[bond[with_bond]]           # a live bond excludes the pair
         touch = np.flatnonzero((overlap > 0) & ~bonded & (dist > 0))
@@ -459,7 +491,8 @@ class Contact:
         if self.compiled:
             e = self._eval
             self.energy, self._slipped = self._forces(
-                e["pi"], e["pj"], e["bond"], alive, e["rest"], u, self.radius, self._code,
+                e["pi"], e["pj"], e["bond"], alive, e["rest"], u, self._radii_of(len(u)),
+                self._code,
                 self.law.stiffness, self.history, self.ratio, self.mu, e["xi"], e["live"],
                 e["touch"], e["d"], e["dist"], e["sticks"], out, rows, self.owned, self.turns,
                 self.rolling)
@@ -537,7 +570,8 @@ class Contact:
         if self.compiled:
             e = self._eval
             return slipped + self._viscous(
-                e["pi"], e["pj"], e["touch"], e["d"], e["dist"], self.radius, self._code,
+                e["pi"], e["pj"], e["touch"], e["d"], e["dist"], self._radii_of(len(v)),
+                self._code,
                 self.law.stiffness, self.history, e["xi"], e["sticks"], self.mass, v, self.zeta,
                 self.mu, self.zeta_t, self.ratio, out, rows, self.owned, self.turns)
         if self._last is None:

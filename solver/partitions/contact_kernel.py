@@ -60,7 +60,8 @@ def loops(dim: int):
         centres, rolls by -l (dtheta_i + dtheta_j) x n (l = r / 2) and the
         shear force's moment -l n x f acts on both particles.  With
         ``rolling`` mu_r > 0 (and ``history``) a rolling spring k_r = k_t R*^2
-        (R* = radius / 2) on the relative rotation phi (columns ``dim`` on of
+        (R* = r_i r_j / (r_i + r_j), ``radius`` each particle's radius r) on the
+        relative rotation phi (columns ``dim`` on of
         ``xi``) since the contact began (3D: its tangential part, turned with
         the contact) turns i by -k_r phi and j by k_r phi, |k_r phi| at most
         mu_r R* f_n (beyond it rolls, the energy the cap takes
@@ -69,7 +70,6 @@ def loops(dim: int):
         with_bonds = bond.shape[0] > 0
         energy = 0.0
         slipped = 0.0
-        two_r = 2.0 * radius
         step = np.zeros(dim)
         width = dim + rotary                       # forces (and the torques)
         turned = np.zeros(3)                       # the pair's rotations since the last call
@@ -86,6 +86,7 @@ def loops(dim: int):
                 cur = a
                 for c in range(width):
                     run[c] = 0.0
+            two_r = radius[a] + radius[b]
             s = 0.0
             for c in range(dim):
                 x = u[b, c] - u[a, c]
@@ -105,8 +106,9 @@ def loops(dim: int):
                     for c in range(dim):
                         r_old += d[p, c] * d[p, c]
                         held += xi[p, c] * xi[p, c]
+                    arm = radius[a] * radius[b] / two_r
                     for c in range(rotary):        # and the rolling spring's, k_r = k_t R*^2
-                        held += 0.25 * radius * radius * xi[p, dim + c] * xi[p, dim + c]
+                        held += arm * arm * xi[p, dim + c] * xi[p, dim + c]
                     _, k_old, _ = _law(law, stiff, max(two_r - np.sqrt(r_old), 0.0))
                     share = 0.5 * ((1.0 if a < owned else 0.0) + (1.0 if b < owned else 0.0))
                     slipped += share * 0.5 * ratio * k_old * held
@@ -193,8 +195,9 @@ def loops(dim: int):
                     length *= shrink
                 e += 0.5 * kt * length * length
                 if rolling > 0.0:              # the rolling spring, capped at mu_r R* f_n
-                    kr = 0.25 * radius * radius * kt
-                    most = rolling * 0.5 * radius * f / kr
+                    arm = radius[a] * radius[b] / two_r
+                    kr = arm * arm * kt
+                    most = rolling * arm * f / kr
                     size2 = 0.0
                     for c in range(rotary):
                         size2 += xi[p, dim + c] * xi[p, dim + c]
@@ -265,7 +268,7 @@ def loops(dim: int):
             a, b = pi[p], pj[p]
             ma, mb = mass[a], mass[b]
             r = dist[p]
-            fn, kp, _ = _law(law, stiff, 2.0 * radius - r)
+            fn, kp, _ = _law(law, stiff, radius[a] + radius[b] - r)
             root = np.sqrt(kp * ma * mb / (ma + mb))
             vn = 0.0
             for c in range(dim):

@@ -112,10 +112,13 @@ class DemPartition(Partition):
                      f"pair (Cundall-Strack){turning}")
             if contact.rolling_friction:
                 dash += (f", rolling resistance {contact.rolling_friction:g} on rolling springs "
-                         "k_r = k_t (r/2)^2")
+                         "k_r = k_t R*^2")
         elif mu:
             dash += f" (viscous, no shear history){turning}"
-        return (f"; {law.name} contact of unbonded particles (radius {contact.radius:g} m, "
+        size = f"radius {contact.radius:g} m"
+        if contact.radii is not None:              # a random packing's spread radii
+            size = f"radii up to {contact.radius:g} m, the packing's, r_i + r_j at touch"
+        return (f"; {law.name} contact of unbonded particles ({size}, "
                 f"stiffness {law.stiffness:g} {law.unit}{dash}, neighbour search with skin "
                 f"{contact.skin:g} m)")
 

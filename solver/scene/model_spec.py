@@ -257,8 +257,10 @@ class ContactSpec:
         "since the contact began (3D: its part across the contact normal; twisting is free), "
         "its moment at most mu_r R* f_n (beyond it the pair rolls, the energy the cap takes "
         "dissipated); default none", None, positive=True)
-    radius: float | None = key("particle radius [m]; default half the lattice spacing (bonded "
-                               "neighbours just touch at rest)", None, positive=True)
+    radius: float | None = key("particle radius [m], one for all; default half the lattice "
+                               "spacing (bonded neighbours just touch at rest), and with a random "
+                               "packing's radius_spread each particle's own radius (a pair "
+                               "touches closer than r_i + r_j)", None, positive=True)
     skin: float | None = key("neighbour-list skin [m]: the pair search is rebuilt when a particle "
                              "has moved half of it; default 0.3 x radius", None, positive=True)
 
