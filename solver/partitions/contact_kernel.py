@@ -6,7 +6,9 @@ The same arithmetic as the numpy path of
 checks the two agree to round-off), which gathers, multiplies and scatters
 over arrays of pairs: here each pair is read once and its force added to its
 two rows (rows >= ``rows`` are not this piece's; the pairs come sorted by
-their first particle, whose sum over its run stays in a buffer).  What later
+their first particle, so its row is read in order: summing a particle's run
+of pairs in a buffer first was slower, a particle having 2.3 candidates on
+average, and the test for a new run mispredicted).  What later
 calls need of the evaluation is kept per candidate pair and no more: whether
 it touches and, if it does, its separation d = x_j - x_i (which is also the
 last separation the shear history advances from; rotating particles: and
@@ -71,21 +73,11 @@ def loops(dim: int):
         energy = 0.0
         slipped = 0.0
         step = np.zeros(dim)
-        width = dim + rotary                       # forces (and the torques)
         turned = np.zeros(3)                       # the pair's rotations since the last call
         twist3 = np.zeros(3)                       # ... and relative rotation
         roll3 = np.zeros(3)                        # (3D) the contact point's roll
-        run = np.zeros(width)                      # the sum on row pi[p] over its run of pairs
-        cur = -1
         for p in range(pi.size):
             a, b = pi[p], pj[p]
-            if a != cur:
-                if 0 <= cur < rows:
-                    for c in range(width):
-                        out[cur, c] += run[c]
-                cur = a
-                for c in range(width):
-                    run[c] = 0.0
             two_r = radius[a] + radius[b]
             s = 0.0
             for c in range(dim):
@@ -216,7 +208,8 @@ def loops(dim: int):
                         moment = kr * xi[p, dim + c]   # -moment on i, +moment on j
                         if b < rows:
                             out[b, dim + c] += moment
-                        run[dim + c] -= moment
+                        if a < rows:
+                            out[a, dim + c] -= moment
                 live[p] = True
             energy += share * e
             fr = f * inv
@@ -228,22 +221,22 @@ def loops(dim: int):
                     g -= kt * x
                 if b < rows:
                     out[b, c] += g
-                run[c] -= g
+                if a < rows:
+                    out[a, c] -= g
             if rotary == 1 and history:     # -l n x (-k_t xi) on both, l = r / 2
                 torque = 0.5 * kt * (d[p, 0] * xi[p, 1] - d[p, 1] * xi[p, 0])
                 if b < rows:
                     out[b, dim] += torque
-                run[dim] += torque
+                if a < rows:
+                    out[a, dim] += torque
             elif rotary == 3 and history:
                 for c in range(3):
                     c1, c2 = (c + 1) % 3, (c + 2) % 3
                     torque = 0.5 * kt * (d[p, c1] * xi[p, c2] - d[p, c2] * xi[p, c1])
                     if b < rows:
                         out[b, dim + c] += torque
-                    run[dim + c] += torque
-        if 0 <= cur < rows:
-            for c in range(width):
-                out[cur, c] += run[c]
+                    if a < rows:
+                        out[a, dim + c] += torque
         return energy, slipped
 
 
