@@ -85,15 +85,22 @@ def report(space, x, i, j, k, L, u, t_loop, t_numpy, agree, bond_bytes, particle
                if t_loop > 2 * t_limit else "it is close to the memory limit.")]
 
 
+def packed(dim: int, side: float):
+    """(positions, bond ends i and j, axial stiffnesses, lengths) of the
+    seeded Poisson-disc packing of a square or cube of ``side`` spacings,
+    Delaunay bonds within gap 1 (E = 1, unit thickness)."""
+    x, r = packing.poisson_disc(np.zeros(dim), np.full(dim, side), 0.5, 0.0, seed=1)
+    i, j = packing.neighbour_pairs(x, r, 1.0)
+    k = packing.bond_stiffness(x, r, i, j, 1.0, 1.0)
+    return x, i, j, k, np.linalg.norm(x[j] - x[i], axis=1)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--side", type=float, default=400.0)
     args = ap.parse_args(argv)
-    x, r = packing.poisson_disc(np.zeros(2), np.full(2, args.side), 0.5, 0.0, seed=1)
-    i, j = packing.neighbour_pairs(x, r, 1.0)
-    k = packing.bond_stiffness(x, r, i, j, 1.0, 1.0)
-    L = np.linalg.norm(x[j] - x[i], axis=1)
+    x, i, j, k, L = packed(2, args.side)
     bonds = BeamBonds(i, j, x[j] - x[i], k, 0.3 * k * L ** 2 / 12.0)
     rng = np.random.default_rng(0)
     q = np.column_stack([rng.normal(0.0, 1e-3, x.shape), rng.normal(0.0, 1e-3, len(x))])

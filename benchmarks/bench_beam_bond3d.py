@@ -34,11 +34,10 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
-from bench_beam_bond import report  # noqa: E402
+from bench_beam_bond import packed, report  # noqa: E402
 from bench_throughput import best  # noqa: E402
 from tables import write  # noqa: E402
 
-from solver.model import packing  # noqa: E402
 from solver.partitions.orientation import Orientation  # noqa: E402
 from solver.partitions.beam_bond3d import BeamBonds3D  # noqa: E402
 from solver.partitions.beam_bond3d_kernel import beam_forces3d  # noqa: E402
@@ -51,10 +50,7 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--side", type=float, default=54.0)
     args = ap.parse_args(argv)
-    x, r = packing.poisson_disc(np.zeros(3), np.full(3, args.side), 0.5, 0.0, seed=1)
-    i, j = packing.neighbour_pairs(x, r, 1.0)
-    k = packing.bond_stiffness(x, r, i, j, 1.0, 1.0)
-    L = np.linalg.norm(x[j] - x[i], axis=1)
+    x, i, j, k, L = packed(3, args.side)
     k_b = 0.3 * k * L ** 2 / 12.0
     bonds = BeamBonds3D(i, j, x[j] - x[i], k, k_b, k_b)
     rng = np.random.default_rng(0)

@@ -71,17 +71,26 @@ def test_the_compiled_loops_turn_the_particles_as_the_numpy_path(history, rollin
     q, w, m = cluster()
     kn, h = 2e5, 0.02 / np.sqrt(2e5)
     args = dict(zeta=0.3, mu=0.2, zeta_t=0.3, history=history, h=h, rolling=rolling)
+    compiled_equals_numpy(q, w, m, kn, 150, 2, **args)
+
+
+def compiled_equals_numpy(q, w, m, kn, steps, dim, **args):
+    """Step the particles by the compiled contact loops while the numpy path
+    evaluates the same states: forces and torques, dashpot and friction,
+    power, energy, slid work and touching pairs equal at every step (1e-12
+    of the largest force), both rebuild alike (more than once), and the
+    torques are not small (at least 0.05 R x the largest force)."""
     fast, ref = contact(kn, m[:, 0], **args), contact(kn, m[:, 0], compiled=False, **args)
     assert fast.compiled and not ref.compiled
     biggest = 0.0
-    for _, _, got in verlet([fast, ref], q, w, m, h, 150):
+    for _, _, got in verlet([fast, ref], q, w, m, args["h"], steps):
         (f, g, p, e, s, t), (f0, g0, p0, e0, s0, t0) = got
-        scale = np.abs(f0[:, :2]).max()
+        scale = np.abs(f0[:, :dim]).max()
         assert np.abs(f - f0).max() <= 1e-12 * scale and np.abs(g - g0).max() <= 1e-12 * scale
         assert abs(p - p0) <= 1e-12 * abs(p0) and abs(e - e0) <= 1e-12 * e0
         assert abs(s - s0) <= 1e-12 * max(s0, 1e-300)
         assert np.array_equal(t[0], t0[0]) and np.array_equal(t[1], t0[1])
-        biggest = max(biggest, np.abs((f0 + g0)[:, 2]).max() / (R * scale))
+        biggest = max(biggest, np.abs((f0 + g0)[:, dim:]).max() / (R * scale))
     assert fast.builds == ref.builds > 1
     assert biggest > 0.05, biggest
 
@@ -246,18 +255,7 @@ def test_3d_compiled_loops_turn_spheres_as_the_numpy_path(history, rolling, spre
         if spread else None
     args = dict(zeta=0.3, mu=0.2, zeta_t=0.3, history=history, h=h, rotary=3, rolling=rolling,
                 radii=radii)
-    fast, ref = contact(kn, m[:, 0], **args), contact(kn, m[:, 0], compiled=False, **args)
-    biggest = 0.0
-    for _, _, got in verlet([fast, ref], q, w, m, h, 120):
-        (f, g, p, e, s, t), (f0, g0, p0, e0, s0, t0) = got
-        scale = np.abs(f0[:, :3]).max()
-        assert np.abs(f - f0).max() <= 1e-12 * scale and np.abs(g - g0).max() <= 1e-12 * scale
-        assert abs(p - p0) <= 1e-12 * abs(p0) and abs(e - e0) <= 1e-12 * e0
-        assert abs(s - s0) <= 1e-12 * max(s0, 1e-300)
-        assert np.array_equal(t[0], t0[0]) and np.array_equal(t[1], t0[1])
-        biggest = max(biggest, np.abs((f0 + g0)[:, 3:]).max() / (R * scale))
-    assert fast.builds == ref.builds > 1
-    assert biggest > 0.05, biggest
+    compiled_equals_numpy(q, w, m, kn, 120, 3, **args)
 
 
 def audit3(rolling=0.0, seed=5, steps=1500):

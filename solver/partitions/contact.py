@@ -383,12 +383,9 @@ class Contact:
             if self.rolling and T == 1:
                 phi = xi[:, dim] + step[:, dim + T]
             elif self.rolling:         # 3D: turned into the tangent plane, plus the
-                phi = _tangent(xi[:, dim:], unit)  # tangential part of the relative turn
-                turn = step[:, dim + T:]
-                phi += turn - np.einsum("pc,pc->p", turn, unit)[:, None] * unit
+                phi = _turn_in(xi[:, dim:], unit, step[:, dim + T:])   # relative turn's part
             step, xi = step[:, :dim] + roll, xi[:, :dim]
-        xi = _tangent(xi, unit)
-        xi += step - np.einsum("pc,pc->p", step, unit)[:, None] * unit
+        xi = _turn_in(xi, unit, step)
         kt = self.ratio * k
         length = np.linalg.norm(xi, axis=1)
         cap = self.mu * fn
@@ -615,13 +612,15 @@ class Contact:
 ROTATIONS = {2: 1, 3: 3}      # a rotating particle's rotations: about z; about x, y, z
 
 
-def _tangent(x, unit):
+def _turn_in(x, unit, add):
     """Vectors ``x`` [n, dim] turned into the planes normal to ``unit`` [n, dim],
-    their lengths kept (a spring that turns with its contact)."""
+    their lengths kept, plus the parts of ``add`` in those planes (a spring
+    that turns with its contact and grows by the change)."""
     length = np.linalg.norm(x, axis=1)
     x = x - np.einsum("pc,pc->p", x, unit)[:, None] * unit
     turned = np.linalg.norm(x, axis=1)
-    return x * np.divide(length, turned, out=np.zeros_like(length), where=turned > 0)[:, None]
+    x *= np.divide(length, turned, out=np.zeros_like(length), where=turned > 0)[:, None]
+    return x + add - np.einsum("pc,pc->p", add, unit)[:, None] * unit
 
 
 def _spin(w, d):

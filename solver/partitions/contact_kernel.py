@@ -35,6 +35,27 @@ def _law(law, stiff, overlap):
     return stiff * overlap * root, 1.5 * stiff * root, 0.4 * stiff * overlap * overlap * root
 
 
+@numba.njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _turn_in(xi, p, first, count, d, inv, add):
+    """xi[p, first:first + count] turned into the plane normal to d[p] (1 /
+    |d[p]| = ``inv``), its length kept, plus the part of ``add`` in that
+    plane: a spring that turns with its contact and grows by the change."""
+    proj = 0.0
+    held = 0.0
+    add_n = 0.0
+    for c in range(count):
+        proj += xi[p, first + c] * d[p, c]
+        held += xi[p, first + c] * xi[p, first + c]
+        add_n += add[c] * d[p, c]
+    proj *= inv
+    add_n *= inv
+    left = held - proj * proj
+    scale = np.sqrt(held / left) if left > 0.0 else 0.0
+    for c in range(count):
+        n = d[p, c] * inv
+        xi[p, first + c] = (xi[p, first + c] - proj * n) * scale + (add[c] - add_n * n)
+
+
 def loops(dim: int):
     """(contact_forces, contact_viscous) compiled for ``dim`` components: a
     constant the compiler unrolls the component loops with (each dimension
@@ -125,21 +146,8 @@ def loops(dim: int):
             kt = ratio * kp
             if history:
                 length2 = 0.0
-                if live[p]:        # xi turned into the tangent plane (its length kept), plus
-                    proj = 0.0     # the tangential part of the separation's change
-                    held = 0.0
-                    step_n = 0.0
-                    for c in range(dim):
-                        proj += xi[p, c] * d[p, c]
-                        held += xi[p, c] * xi[p, c]
-                        step_n += step[c] * d[p, c]
-                    proj *= inv
-                    step_n *= inv
-                    left = held - proj * proj
-                    scale = np.sqrt(held / left) if left > 0.0 else 0.0
-                    for c in range(dim):
-                        n = d[p, c] * inv
-                        xi[p, c] = (xi[p, c] - proj * n) * scale + (step[c] - step_n * n)
+                if live[p]:        # xi turned into the tangent plane, plus the
+                    _turn_in(xi, p, 0, dim, d, inv, step)   # separation change's part
                     if rotary == 1:    # rolled by -l (dtheta_i + dtheta_j) x n (d carries r)
                         roll = 0.5 * turned[0]
                         xi[p, 0] += roll * d[p, 1]
@@ -158,22 +166,8 @@ def loops(dim: int):
                         length2 += xi[p, c] * xi[p, c]
                     if rolling > 0.0 and rotary == 1:
                         xi[p, dim] += twist3[0]
-                    elif rolling > 0.0:        # 3D: turned into the tangent plane (its
-                        proj = 0.0             # length kept), plus the relative turn's
-                        held = 0.0             # tangential part
-                        step_n = 0.0
-                        for c in range(3):
-                            proj += xi[p, dim + c] * d[p, c]
-                            held += xi[p, dim + c] * xi[p, dim + c]
-                            step_n += twist3[c] * d[p, c]
-                        proj *= inv
-                        step_n *= inv
-                        left = held - proj * proj
-                        scale = np.sqrt(held / left) if left > 0.0 else 0.0
-                        for c in range(3):
-                            n = d[p, c] * inv
-                            xi[p, dim + c] = ((xi[p, dim + c] - proj * n) * scale +
-                                              (twist3[c] - step_n * n))
+                    elif rolling > 0.0:        # 3D: the same, the relative turn's part
+                        _turn_in(xi, p, dim, 3, d, inv, twist3)
                 else:
                     for c in range(xi.shape[1]):
                         xi[p, c] = 0.0
